@@ -1,0 +1,110 @@
+//! The six-switch bridge as the controller sees it: leg states and gate signals.
+
+use crate::abc::{Abc, Phase};
+use serde::{Deserialize, Serialize};
+
+/// What a commutation pattern asks of one leg (SPEC §3 notation).
+#[derive(Copy, Clone, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub enum LegState {
+    /// "V": the phase is tied to the supply V_DD (high-side switch, subject to PWM).
+    High,
+    /// "G": the phase is tied to ground (low-side switch).
+    Low,
+    /// "F": both switches off; the phase floats once its current has decayed.
+    #[default]
+    Float,
+}
+
+/// The leg states of all three phases: what a commutation strategy returns.
+pub type Pattern = Abc<LegState>;
+
+/// The all-floating pattern (chip flag 0110).
+pub const ALL_FLOAT: Pattern = Abc::splat(LegState::Float);
+
+/// Logical gate commands of the six switches: `true` = switch on.
+///
+/// `high.u` is Tr1, `low.u` Tr2, `high.v` Tr3, `low.v` Tr4, `high.w` Tr5, `low.w` Tr6.
+#[derive(Copy, Clone, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub struct Gates {
+    /// High-side switches (to V_DD).
+    pub high: Abc<bool>,
+    /// Low-side switches (to the shunt and ground).
+    pub low: Abc<bool>,
+}
+
+/// A gate pattern that would short the supply.
+#[derive(Copy, Clone, Debug, PartialEq, Eq, thiserror::Error)]
+#[error("shoot-through: both switches of phase {} commanded on (rule: at most one switch per leg)", .phase.name())]
+pub struct ShootThrough {
+    /// The leg with both switches on.
+    pub phase: Phase,
+}
+
+impl Gates {
+    /// Every switch off.
+    pub const OFF: Gates = Gates { high: Abc::splat(false), low: Abc::splat(false) };
+
+    /// Refuses a pattern with both switches of a leg on.
+    pub fn validate(&self) -> Result<(), ShootThrough> {
+        for p in Phase::ALL {
+            if self.high.get(p) && self.low.get(p) {
+                return Err(ShootThrough { phase: p });
+            }
+        }
+        Ok(())
+    }
+
+    /// The chip's gate signals Tr1..Tr6 as printed in SPEC §3: the high side is PMOS
+    /// (signal 1 = off), the low side NMOS (signal 0 = off).
+    pub fn to_chip_signals(&self) -> [u8; 6] {
+        let mut s = [0u8; 6];
+        for p in Phase::ALL {
+            s[2 * p.index()] = u8::from(!self.high.get(p));
+            s[2 * p.index() + 1] = u8::from(self.low.get(p));
+        }
+        s
+    }
+
+    /// Inverse of [`Gates::to_chip_signals`]; any non-zero signal counts as 1.
+    pub fn from_chip_signals(s: [u8; 6]) -> Gates {
+        let mut g = Gates::OFF;
+        for p in Phase::ALL {
+            *g.high.get_mut(p) = s[2 * p.index()] == 0;
+            *g.low.get_mut(p) = s[2 * p.index() + 1] != 0;
+        }
+        g
+    }
+
+    /// Gates that hold every leg as `pattern` says, with no chopping.
+    pub fn from_pattern(pattern: &Pattern) -> Gates {
+        Gates {
+            high: pattern.map(|s| s == LegState::High),
+            low: pattern.map(|s| s == LegState::Low),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn chip_signals_of_twelve_step_state_1_and_off() {
+        // SPEC §3 state 1: u=V, v=G, w=V → Tr1..Tr6 = 0 0 1 1 0 0.
+        let g = Gates::from_pattern(&Abc { u: LegState::High, v: LegState::Low, w: LegState::High });
+        assert_eq!(g.to_chip_signals(), [0, 0, 1, 1, 0, 0]);
+        // "off" (flag 0110): all floating → 1 0 1 0 1 0.
+        assert_eq!(Gates::OFF.to_chip_signals(), [1, 0, 1, 0, 1, 0]);
+        assert_eq!(Gates::from_chip_signals([0, 0, 1, 1, 0, 0]), g);
+    }
+
+    #[test]
+    fn shoot_through_is_refused_and_named() {
+        let mut g = Gates::OFF;
+        g.high.v = true;
+        g.low.v = true;
+        let e = g.validate().unwrap_err();
+        assert_eq!(e.phase, Phase::V);
+        assert!(e.to_string().contains("phase v"));
+    }
+}

@@ -1,0 +1,120 @@
+//! The gate driver: turns commanded gates into effective gates with dead time.
+//!
+//! A switch turns off at once; a turn-on is delayed by the dead time, so the complementary
+//! switch that was just turned off has time to stop conducting. During that gap the leg's
+//! current flows through a diode, which is exactly the effect dead time has on a real bridge.
+
+use crate::bridge::{Gates, ShootThrough};
+use crate::time::Ticks;
+
+/// Dead-time gate driver for the six switches.
+#[derive(Clone, Debug)]
+pub struct GateDriver {
+    dead_time: Ticks,
+    commanded: Gates,
+    effective: Gates,
+    /// Turn-on instants still waiting out the dead time, in order Tr1..Tr6.
+    pending_on: [Ticks; 6],
+}
+
+impl GateDriver {
+    /// A driver with every switch off. `dead_time` = 0 passes commands straight through.
+    pub fn new(dead_time: Ticks) -> Self {
+        GateDriver { dead_time, commanded: Gates::OFF, effective: Gates::OFF, pending_on: [Ticks::NEVER; 6] }
+    }
+
+    /// The gates the bridge actually sees.
+    pub fn effective(&self) -> Gates {
+        self.effective
+    }
+
+    /// The dead time [ticks].
+    pub fn dead_time(&self) -> Ticks {
+        self.dead_time
+    }
+
+    /// Takes a new command at `now`; refuses a shoot-through command.
+    pub fn command(&mut self, now: Ticks, gates: Gates) -> Result<(), ShootThrough> {
+        gates.validate()?;
+        self.commanded = gates;
+        let cmd = flatten(&gates);
+        let mut eff = flatten(&self.effective);
+        for k in 0..6 {
+            if !cmd[k] {
+                eff[k] = false;
+                self.pending_on[k] = Ticks::NEVER;
+            } else if !eff[k] && self.pending_on[k] == Ticks::NEVER {
+                self.pending_on[k] = now + self.dead_time;
+            }
+        }
+        self.effective = unflatten(eff);
+        self.release(now);
+        Ok(())
+    }
+
+    /// Applies every turn-on whose dead time has elapsed by `now`; true if anything changed.
+    pub fn release(&mut self, now: Ticks) -> bool {
+        let mut eff = flatten(&self.effective);
+        let mut changed = false;
+        for k in 0..6 {
+            if self.pending_on[k] <= now {
+                eff[k] = true;
+                self.pending_on[k] = Ticks::NEVER;
+                changed = true;
+            }
+        }
+        self.effective = unflatten(eff);
+        changed
+    }
+
+    /// The next pending turn-on, or [`Ticks::NEVER`].
+    pub fn next_release(&self) -> Ticks {
+        self.pending_on.iter().copied().min().unwrap_or(Ticks::NEVER)
+    }
+}
+
+fn flatten(g: &Gates) -> [bool; 6] {
+    [g.high.u, g.low.u, g.high.v, g.low.v, g.high.w, g.low.w]
+}
+
+fn unflatten(f: [bool; 6]) -> Gates {
+    let mut g = Gates::OFF;
+    (g.high.u, g.low.u, g.high.v, g.low.v, g.high.w, g.low.w) = (f[0], f[1], f[2], f[3], f[4], f[5]);
+    g
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn turn_on_waits_dead_time_turn_off_is_immediate() {
+        let mut d = GateDriver::new(Ticks(10));
+        let mut g = Gates::OFF;
+        g.high.u = true;
+        d.command(Ticks(0), g).unwrap();
+        assert!(!d.effective().high.u);
+        assert_eq!(d.next_release(), Ticks(10));
+        assert!(d.release(Ticks(10)));
+        assert!(d.effective().high.u);
+        // complementary switch-over: high off now, low on after the dead time
+        let mut g2 = Gates::OFF;
+        g2.low.u = true;
+        d.command(Ticks(20), g2).unwrap();
+        assert!(!d.effective().high.u && !d.effective().low.u);
+        d.release(Ticks(29));
+        assert!(!d.effective().low.u);
+        d.release(Ticks(30));
+        assert!(d.effective().low.u);
+    }
+
+    #[test]
+    fn zero_dead_time_passes_through() {
+        let mut d = GateDriver::new(Ticks(0));
+        let mut g = Gates::OFF;
+        g.low.w = true;
+        d.command(Ticks(5), g).unwrap();
+        assert_eq!(d.effective(), g);
+        assert_eq!(d.next_release(), Ticks::NEVER);
+    }
+}

@@ -1,0 +1,35 @@
+//! The plant side of the engine: motor + bridge + sensing as one continuous system.
+
+use crate::abc::Abc;
+use crate::bridge::Gates;
+use crate::control::Sensed;
+use crate::time::Ticks;
+
+/// Why [`Plant::advance`] returned.
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+pub enum PlantStop {
+    /// The requested instant was reached.
+    Reached,
+    /// A diode started or stopped conducting (at a time between ticks); integration
+    /// restarted there with the new conduction state.
+    Diode,
+    /// A watched comparator output changes at this instant (after propagation delay).
+    Sensing(Ticks),
+}
+
+/// Continuous dynamics driven by six gate signals and a load torque, producing the
+/// signals a controller senses.
+pub trait Plant {
+    /// Plant time [s]. Equals an engine tick instant except right after a diode event.
+    fn time_s(&self) -> f64;
+
+    /// Applies the effective gate states from the current instant on.
+    fn set_gates(&mut self, gates: &Gates);
+
+    /// Integrates up to the instant `until`, stopping early at a diode event or when one of
+    /// the `watch`ed comparator outputs changes.
+    fn advance(&mut self, until: Ticks, watch: Abc<bool>) -> PlantStop;
+
+    /// What a controller sampling at instant `at` (not later than the plant time) sees.
+    fn sensed(&self, at: Ticks) -> Sensed;
+}

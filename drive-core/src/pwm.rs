@@ -1,0 +1,167 @@
+//! PWM: the chip's up-down carrier and the schemes that turn a pattern + duty into gates.
+
+use crate::bridge::{Gates, LegState, Pattern};
+use crate::error::ParamError;
+use crate::time::Ticks;
+use serde::{Deserialize, Serialize};
+
+/// A voltage command in carrier counts: duty = `cv / top` (SPEC §5: duty = cv/2000).
+pub type DutyCounts = u32;
+
+/// Symmetric triangle carrier counting 0 → `top` → 0, one count per master tick.
+///
+/// Period = 2·`top` ticks (default 4000 ticks = 80 µs = 12.5 kHz). The output is on while the
+/// continuous carrier is below `cv`: an on-interval of 2·cv ticks centred on each valley,
+/// so the duty is exactly `cv/top` and every edge falls on a whole tick.
+#[derive(Copy, Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Carrier {
+    /// Peak count of the carrier [counts]; default 2000; rule: 1 ≤ top ≤ 1 000 000.
+    pub top: u32,
+}
+
+impl Default for Carrier {
+    fn default() -> Self {
+        Carrier { top: 2000 }
+    }
+}
+
+impl Carrier {
+    /// Checks the parameter rules.
+    pub fn validate(&self) -> Result<(), ParamError> {
+        if !(1..=1_000_000).contains(&self.top) {
+            return Err(ParamError::new("pwm.top", self.top as f64, "must be 1 ..= 1000000 counts"));
+        }
+        Ok(())
+    }
+
+    /// Carrier period in ticks.
+    pub fn period(&self) -> Ticks {
+        Ticks(2 * self.top as u64)
+    }
+
+    /// PWM frequency in hertz.
+    pub fn frequency_hz(&self) -> f64 {
+        1.0 / self.period().seconds()
+    }
+
+    /// Whether the PWM output is on during the tick starting at `t`.
+    pub fn is_on(&self, t: Ticks, cv: DutyCounts) -> bool {
+        let cv = cv.min(self.top) as u64;
+        let p = t.0 % self.period().0;
+        p < cv || p >= self.period().0 - cv
+    }
+
+    /// The first instant `> t` at which the output changes, or `None` at 0 % and 100 %.
+    pub fn next_edge(&self, t: Ticks, cv: DutyCounts) -> Option<Ticks> {
+        let cv = cv.min(self.top) as u64;
+        let n = self.period().0;
+        if cv == 0 || cv == self.top as u64 {
+            return None;
+        }
+        let base = t.0 - t.0 % n;
+        let p = t.0 % n;
+        let next = if p < cv { base + cv } else if p < n - cv { base + n - cv } else { base + n + cv };
+        Some(Ticks(next))
+    }
+}
+
+/// Which switches chop: turns a commutation pattern and the carrier comparison into gates.
+///
+/// Implementations never add dead time; the gate driver does that.
+pub trait PwmScheme {
+    /// Gates for `pattern` while the PWM output is `on` (true) or off (false).
+    fn gates(&self, pattern: &Pattern, on: bool) -> Gates;
+}
+
+/// The chip's scheme: high-side switches chop, low-side switches stay on.
+#[derive(Copy, Clone, Debug, Default)]
+pub struct HighSideChop;
+
+impl PwmScheme for HighSideChop {
+    fn gates(&self, pattern: &Pattern, on: bool) -> Gates {
+        Gates {
+            high: pattern.map(|s| s == LegState::High && on),
+            low: pattern.map(|s| s == LegState::Low),
+        }
+    }
+}
+
+/// Low-side switches chop, high-side switches stay on.
+#[derive(Copy, Clone, Debug, Default)]
+pub struct LowSideChop;
+
+impl PwmScheme for LowSideChop {
+    fn gates(&self, pattern: &Pattern, on: bool) -> Gates {
+        Gates {
+            high: pattern.map(|s| s == LegState::High),
+            low: pattern.map(|s| s == LegState::Low && on),
+        }
+    }
+}
+
+/// Complementary (synchronous) chopping: a "V" leg alternates high-side / low-side switch,
+/// so freewheeling current flows through a switch instead of a diode (needs dead time).
+#[derive(Copy, Clone, Debug, Default)]
+pub struct Complementary;
+
+impl PwmScheme for Complementary {
+    fn gates(&self, pattern: &Pattern, on: bool) -> Gates {
+        Gates {
+            high: pattern.map(|s| s == LegState::High && on),
+            low: pattern.map(|s| s == LegState::Low || (s == LegState::High && !on)),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::abc::Abc;
+
+    #[test]
+    fn duty_is_cv_over_top_exactly() {
+        let c = Carrier::default();
+        assert!((c.frequency_hz() - 12_500.0).abs() < 1e-6);
+        for cv in [0u32, 1, 500, 1000, 1999, 2000] {
+            let on = (0..c.period().0).filter(|&t| c.is_on(Ticks(t), cv)).count();
+            assert_eq!(on as u64, 2 * cv as u64, "cv = {cv}");
+        }
+    }
+
+    #[test]
+    fn next_edge_finds_every_change() {
+        let c = Carrier { top: 50 };
+        for cv in [1u32, 7, 25, 49] {
+            let mut t = Ticks(0);
+            let mut edges = 0;
+            while t.0 < 3 * c.period().0 {
+                let e = c.next_edge(t, cv).unwrap();
+                for k in t.0..e.0 {
+                    assert_eq!(c.is_on(Ticks(k), cv), c.is_on(t, cv), "cv={cv} k={k}");
+                }
+                assert_ne!(c.is_on(e, cv), c.is_on(Ticks(e.0 - 1), cv));
+                t = e;
+                edges += 1;
+            }
+            assert_eq!(edges, 7); // two per period, plus the one after the last period starts
+        }
+        assert_eq!(c.next_edge(Ticks(3), 0), None);
+        assert_eq!(c.next_edge(Ticks(3), 50), None);
+    }
+
+    #[test]
+    fn schemes_chop_the_right_switch() {
+        let p = Abc { u: LegState::High, v: LegState::Low, w: LegState::Float };
+        let off = HighSideChop.gates(&p, false);
+        assert!(!off.high.u && off.low.v && !off.low.u);
+        let off = LowSideChop.gates(&p, false);
+        assert!(off.high.u && !off.low.v);
+        let off = Complementary.gates(&p, false);
+        assert!(!off.high.u && off.low.u && off.low.v && !off.high.w && !off.low.w);
+        for s in [&HighSideChop as &dyn PwmScheme, &LowSideChop, &Complementary] {
+            for on in [false, true] {
+                assert!(s.gates(&p, on).validate().is_ok());
+            }
+        }
+    }
+}

@@ -1,0 +1,114 @@
+//! The master time base: integer ticks of the chip's 50 MHz clock (20 ns).
+//!
+//! Every discrete instant of the drive (PWM edges, controller clocks, ADC conversions,
+//! comparator decisions) falls on a whole tick, so clocks never drift against each other.
+//! Continuous plant time is `f64` seconds; it meets the tick grid at every engine instant.
+
+use serde::{Deserialize, Serialize};
+use std::ops::{Add, AddAssign, Sub};
+
+/// Length of one master tick in seconds (50 MHz master clock).
+pub const TICK_S: f64 = 20e-9;
+
+/// An instant or a duration counted in master ticks (20 ns).
+#[derive(Copy, Clone, Debug, Default, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
+#[serde(transparent)]
+pub struct Ticks(pub u64);
+
+impl Ticks {
+    /// Time zero.
+    pub const ZERO: Ticks = Ticks(0);
+    /// "Never": later than any reachable instant.
+    pub const NEVER: Ticks = Ticks(u64::MAX);
+
+    /// This instant in seconds.
+    pub fn seconds(self) -> f64 {
+        self.0 as f64 * TICK_S
+    }
+
+    /// The number of whole ticks nearest to `seconds`, or `None` if negative, non-finite or
+    /// beyond the range of the counter.
+    pub fn from_seconds(seconds: f64) -> Option<Ticks> {
+        let t = (seconds / TICK_S).round();
+        (t.is_finite() && t >= 0.0 && t < 1.8e19).then_some(Ticks(t as u64))
+    }
+
+    /// The first instant `>= self` that is a whole multiple of `period` (a clock edge).
+    /// A zero period means "every tick".
+    pub fn next_edge(self, period: Ticks) -> Ticks {
+        if period.0 <= 1 {
+            return self;
+        }
+        let rem = self.0 % period.0;
+        if rem == 0 { self } else { Ticks(self.0.saturating_add(period.0 - rem)) }
+    }
+}
+
+impl Add for Ticks {
+    type Output = Ticks;
+    fn add(self, rhs: Ticks) -> Ticks {
+        Ticks(self.0.saturating_add(rhs.0))
+    }
+}
+
+impl AddAssign for Ticks {
+    fn add_assign(&mut self, rhs: Ticks) {
+        *self = *self + rhs;
+    }
+}
+
+impl Sub for Ticks {
+    type Output = Ticks;
+    fn sub(self, rhs: Ticks) -> Ticks {
+        Ticks(self.0.saturating_sub(rhs.0))
+    }
+}
+
+/// The chip's clocks (SPEC §7), as periods in master ticks.
+pub mod clocks {
+    use super::Ticks;
+    /// PWM counter: one count per master tick (20 ns).
+    pub const PWM_COUNTER: Ticks = Ticks(1);
+    /// Closed-loop commutation logic and the digital filter: 0.64 µs.
+    pub const COMMUTATION: Ticks = Ticks(32);
+    /// Speed (FG period) counter: 2.56 µs.
+    pub const SPEED_COUNTER: Ticks = Ticks(128);
+    /// Step-miss detector: 40.96 µs.
+    pub const STEP_MISS: Ticks = Ticks(2048);
+    /// Alignment / start sequencer: 327.68 µs.
+    pub const ALIGN: Ticks = Ticks(16_384);
+    /// PI update (integrator delay clock): 2^18 ticks = 5.242 88 ms.
+    pub const PI_UPDATE: Ticks = Ticks(262_144);
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn chip_clock_periods_match_spec() {
+        assert!((clocks::COMMUTATION.seconds() - 0.64e-6).abs() < 1e-15);
+        assert!((clocks::SPEED_COUNTER.seconds() - 2.56e-6).abs() < 1e-15);
+        assert!((clocks::STEP_MISS.seconds() - 40.96e-6).abs() < 1e-15);
+        assert!((clocks::ALIGN.seconds() - 327.68e-6).abs() < 1e-12);
+        assert!((clocks::PI_UPDATE.seconds() - 5.24288e-3).abs() < 1e-12);
+    }
+
+    #[test]
+    fn next_edge_rounds_up_to_multiples() {
+        let p = Ticks(32);
+        assert_eq!(Ticks(0).next_edge(p), Ticks(0));
+        assert_eq!(Ticks(1).next_edge(p), Ticks(32));
+        assert_eq!(Ticks(32).next_edge(p), Ticks(32));
+        assert_eq!(Ticks(33).next_edge(p), Ticks(64));
+        assert_eq!(Ticks(7).next_edge(Ticks(1)), Ticks(7));
+    }
+
+    #[test]
+    fn from_seconds_rejects_bad_values() {
+        assert_eq!(Ticks::from_seconds(1e-6), Some(Ticks(50)));
+        assert_eq!(Ticks::from_seconds(-1e-6), None);
+        assert_eq!(Ticks::from_seconds(f64::NAN), None);
+        assert_eq!(Ticks::from_seconds(f64::INFINITY), None);
+    }
+}

@@ -1,0 +1,455 @@
+//! The published BLDC motor on a six-switch bridge with shunt and comparator sensing.
+//!
+//! State: phase currents i_u, i_v, i_w [A], mechanical speed ωm [rad/s], electrical angle
+//! θe [rad, wrapped to 0..2π], plus energy integrals [J]. Between events the state is
+//! integrated with classical RK4 (step ≤ `solver.max_step_s`); the conduction topology is
+//! constant within a step. Mechanics: J·dωm/dt = Te − Bm·ωm − TL, dθe/dt = (P/2)·ωm,
+//! Te = (P/2)·λr·Σ i_x·f(θx) so that Te·ωm = Σ e_x·i_x exactly.
+//!
+//! Events located in time (regula falsi on the RK4 solution, to 1e-13 s): a freewheeling
+//! diode's current reaching zero (the current is then set to exactly zero and the phase
+//! floats), and an open terminal reaching a diode clamp (the diode starts conducting).
+
+use crate::circuit::{Circuit, Conduction, Solution};
+use crate::emf;
+use crate::params::{BackEmfShape, PlantParams};
+use crate::sensing::{ComparatorBank, CurrentSense};
+use drive_core::{Abc, Gates, ParamError, Phase, Plant, PlantStop, Sensed, TICK_S, Ticks};
+use nalgebra::SVector;
+use std::f64::consts::TAU;
+
+const N: usize = 13;
+type State = SVector<f64, N>;
+const OMEGA: usize = 3;
+const THETA: usize = 4;
+const E_SUPPLY: usize = 5;
+
+/// Energies integrated along the run [J].
+#[derive(Copy, Clone, Debug, Default, PartialEq)]
+pub struct EnergyLedger {
+    /// Drawn from V_DD (negative when regenerating).
+    pub supply: f64,
+    /// Winding copper loss.
+    pub copper: f64,
+    /// Switch conduction loss.
+    pub switch: f64,
+    /// Diode loss.
+    pub diode: f64,
+    /// Shunt loss.
+    pub shunt: f64,
+    /// Viscous friction loss ∫Bm·ωm².
+    pub friction: f64,
+    /// Work done on the load ∫TL·ωm.
+    pub load: f64,
+    /// Electromechanical conversion ∫Σe·i.
+    pub airgap: f64,
+    /// Magnetic energy stored now: ½(Lp + M)·Σi².
+    pub magnetic: f64,
+    /// Kinetic energy now: ½J·ωm².
+    pub kinetic: f64,
+}
+
+/// A snapshot of the true plant signals (for traces and tests).
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub struct Observation {
+    /// Time [s].
+    pub t_s: f64,
+    /// Electrical angle θe [rad], 0..2π, with e_u = λr·ωe·sin θe for the sinusoidal shape.
+    pub theta_e: f64,
+    /// Mechanical speed [rad/s].
+    pub omega_m: f64,
+    /// Mechanical speed [rpm].
+    pub speed_rpm: f64,
+    /// Phase currents into the windings [A].
+    pub i: Abc<f64>,
+    /// Terminal voltages to ground [V].
+    pub v_term: Abc<f64>,
+    /// Neutral voltage to ground [V].
+    pub v_n: f64,
+    /// Back-EMFs [V].
+    pub emf: Abc<f64>,
+    /// Electromagnetic torque [N·m].
+    pub torque_nm: f64,
+    /// Conduction state of each leg.
+    pub conduction: Abc<Conduction>,
+    /// Shunt current, positive to ground [A].
+    pub i_shunt: f64,
+}
+
+/// Counters of the work done, for performance figures.
+#[derive(Copy, Clone, Debug, Default, PartialEq, Eq)]
+pub struct PlantStats {
+    /// RK4 steps committed.
+    pub steps: u64,
+    /// Diode events located.
+    pub diode_events: u64,
+    /// RK4 steps spent locating events or cutting steps short.
+    pub retries: u64,
+}
+
+/// Motor + bridge + sensing. Build with [`BldcPlant::new`].
+#[derive(Clone, Debug)]
+pub struct BldcPlant {
+    params: PlantParams,
+    circuit: Circuit,
+    shape: BackEmfShape,
+    pp: f64,
+    lambda: f64,
+    inertia: f64,
+    friction: f64,
+    inductance: f64,
+    h_max: f64,
+    x: State,
+    t: f64,
+    gates: Gates,
+    modes: Abc<Conduction>,
+    load_nm: f64,
+    speed_lock: bool,
+    /// Network solution at the current time (right after any event): start of the next
+    /// sensing segment.
+    start: Solution,
+    cmp: ComparatorBank,
+    cur: CurrentSense,
+    same_instant_events: u32,
+    stats: PlantStats,
+}
+
+impl BldcPlant {
+    /// A plant at rest (θe = 0, ωm = 0, no current, bridge off) with validated parameters.
+    pub fn new(params: PlantParams) -> Result<Self, ParamError> {
+        params.validate()?;
+        let m = &params.motor;
+        let circuit = Circuit::new(m, &params.power_stage);
+        let x = State::zeros();
+        let e = Abc::splat(0.0);
+        let modes = circuit.resolve(&Gates::OFF, &Abc::splat(0.0), &e);
+        let start = circuit.solve(&modes, &Abc::splat(0.0), &e);
+        let cmp = ComparatorBank::new(&params.sensing.comparator, params.sensing.seed, &start.v_term, start.v_n);
+        let cur = CurrentSense::new(&params.sensing.current, params.power_stage.shunt_ohm);
+        Ok(BldcPlant {
+            circuit,
+            shape: m.back_emf,
+            pp: m.pole_pairs(),
+            lambda: m.flux_linkage_wb,
+            inertia: m.inertia_kgm2,
+            friction: m.viscous_friction_nms,
+            inductance: m.phase_inductance_h(),
+            h_max: params.solver.max_step_s,
+            x,
+            t: 0.0,
+            gates: Gates::OFF,
+            modes,
+            load_nm: 0.0,
+            speed_lock: false,
+            start,
+            cmp,
+            cur,
+            same_instant_events: 0,
+            stats: PlantStats::default(),
+            params,
+        })
+    }
+
+    /// The parameters in use.
+    pub fn params(&self) -> &PlantParams {
+        &self.params
+    }
+
+    /// Sets the load torque TL [N·m] (opposing positive rotation) from now on.
+    pub fn set_load_torque(&mut self, nm: f64) {
+        self.load_nm = if nm.is_finite() { nm } else { 0.0 };
+    }
+
+    /// Sets rotor angle θe [rad] and speed [rpm]; `lock` holds the speed constant from now on
+    /// (a dynamometer), otherwise the rotor is free.
+    pub fn set_rotor(&mut self, theta_e: f64, speed_rpm: f64, lock: bool) {
+        self.x[THETA] = theta_e.rem_euclid(TAU);
+        self.x[OMEGA] = speed_rpm * TAU / 60.0;
+        self.speed_lock = lock;
+        self.refresh_start();
+        let (v, vn) = (self.start.v_term, self.start.v_n);
+        self.cmp = ComparatorBank::new(&self.params.sensing.comparator, self.params.sensing.seed, &v, vn);
+    }
+
+    /// Work counters.
+    pub fn stats(&self) -> PlantStats {
+        self.stats
+    }
+
+    /// Total comparator toggles so far.
+    pub fn comparator_toggles(&self) -> u64 {
+        self.cmp.toggle_count()
+    }
+
+    /// The comparator bank (filters, outputs).
+    pub fn comparators(&self) -> &ComparatorBank {
+        &self.cmp
+    }
+
+    /// The current-sense chain.
+    pub fn current_sense(&self) -> &CurrentSense {
+        &self.cur
+    }
+
+    fn currents(x: &State) -> Abc<f64> {
+        Abc { u: x[0], v: x[1], w: x[2] }
+    }
+
+    fn emf_of(&self, x: &State) -> (Abc<f64>, Abc<f64>) {
+        let f = emf::shape(&self.shape, x[THETA]);
+        let k = self.lambda * self.pp * x[OMEGA];
+        (f, f.map(|v| k * v))
+    }
+
+    fn solve_at(&self, x: &State) -> Solution {
+        let (_, e) = self.emf_of(x);
+        self.circuit.solve(&self.modes, &Self::currents(x), &e)
+    }
+
+    fn deriv(&self, x: &State) -> State {
+        let (f, e) = self.emf_of(x);
+        let i = Self::currents(x);
+        let s = self.circuit.solve(&self.modes, &i, &e);
+        let wm = x[OMEGA];
+        let te = self.pp * self.lambda * (i.u * f.u + i.v * f.v + i.w * f.w);
+        let dw = if self.speed_lock { 0.0 } else { (te - self.friction * wm - self.load_nm) / self.inertia };
+        let p = s.powers;
+        State::from([
+            s.di.u,
+            s.di.v,
+            s.di.w,
+            dw,
+            self.pp * wm,
+            p.supply,
+            p.copper,
+            p.switch,
+            p.diode,
+            p.shunt,
+            self.friction * wm * wm,
+            self.load_nm * wm,
+            p.airgap,
+        ])
+    }
+
+    fn rk4(&self, x: &State, h: f64) -> State {
+        let k1 = self.deriv(x);
+        let k2 = self.deriv(&(x + k1 * (0.5 * h)));
+        let k3 = self.deriv(&(x + k2 * (0.5 * h)));
+        let k4 = self.deriv(&(x + k3 * h));
+        x + (k1 + (k2 + k3) * 2.0 + k4) * (h / 6.0)
+    }
+
+    /// Per-phase event functions: ≥ 0 while nothing happens, < 0 once a diode current has
+    /// crossed zero or an open terminal has left the clamps.
+    fn event_margin(&self, x: &State, s: &Solution, p: Phase) -> f64 {
+        match self.modes.get(p) {
+            Conduction::DiodeLow => x[p.index()],
+            Conduction::DiodeHigh => -x[p.index()],
+            Conduction::Open => -self.circuit.clamp_violation(s.v_term.get(p), s.i_shunt).abs(),
+            _ => f64::INFINITY,
+        }
+    }
+
+    fn triggered(&self, x: &State, s: &Solution) -> Option<Phase> {
+        Phase::ALL.into_iter().find(|&p| {
+            let g = self.event_margin(x, s, p);
+            g < 0.0 || (g == 0.0 && self.modes.get(p).is_diode())
+        })
+    }
+
+    /// Earliest h in (0, h_full] where phase p's event function reaches zero.
+    fn locate(&mut self, x0: &State, h_full: f64, p: Phase) -> f64 {
+        let g = |pl: &Self, h: f64| {
+            let x = pl.rk4(x0, h);
+            let s = pl.solve_at(&x);
+            pl.event_margin(&x, &s, p)
+        };
+        let (mut a, mut fa) = (0.0, self.event_margin(x0, &self.start, p));
+        let (mut b, mut fb) = (h_full, g(self, h_full));
+        if fa <= 0.0 {
+            return 0.0;
+        }
+        let mut side = 0i8;
+        for _ in 0..60 {
+            if b - a < 1e-13 {
+                break;
+            }
+            let c = (b - fb * (b - a) / (fb - fa)).clamp(a + 0.01 * (b - a), b - 0.01 * (b - a));
+            let fc = g(self, c);
+            self.stats.retries += 1;
+            if fc <= 0.0 {
+                (b, fb) = (c, fc);
+                if side == -1 {
+                    fa *= 0.5;
+                }
+                side = -1;
+            } else {
+                (a, fa) = (c, fc);
+                if side == 1 {
+                    fb *= 0.5;
+                }
+                side = 1;
+            }
+        }
+        b
+    }
+
+    fn refresh_start(&mut self) {
+        let (_, e) = self.emf_of(&self.x);
+        self.modes = self.circuit.resolve(&self.gates, &Self::currents(&self.x), &e);
+        self.start = self.circuit.solve(&self.modes, &Self::currents(&self.x), &e);
+    }
+
+    fn tick_of(t: f64) -> Ticks {
+        Ticks((t / TICK_S + 1e-6).floor() as u64)
+    }
+
+    /// True signals now.
+    pub fn observe(&self) -> Observation {
+        let (f, e) = self.emf_of(&self.x);
+        let i = Self::currents(&self.x);
+        let s = self.circuit.solve(&self.modes, &i, &e);
+        Observation {
+            t_s: self.t,
+            theta_e: self.x[THETA],
+            omega_m: self.x[OMEGA],
+            speed_rpm: self.x[OMEGA] * 60.0 / TAU,
+            i,
+            v_term: s.v_term,
+            v_n: s.v_n,
+            emf: e,
+            torque_nm: self.pp * self.lambda * (i.u * f.u + i.v * f.v + i.w * f.w),
+            conduction: self.modes,
+            i_shunt: s.i_shunt,
+        }
+    }
+
+    /// Energy integrals since t = 0 and the energies stored now.
+    pub fn energy(&self) -> EnergyLedger {
+        let x = &self.x;
+        EnergyLedger {
+            supply: x[E_SUPPLY],
+            copper: x[E_SUPPLY + 1],
+            switch: x[E_SUPPLY + 2],
+            diode: x[E_SUPPLY + 3],
+            shunt: x[E_SUPPLY + 4],
+            friction: x[E_SUPPLY + 5],
+            load: x[E_SUPPLY + 6],
+            airgap: x[E_SUPPLY + 7],
+            magnetic: 0.5 * self.inductance * (x[0] * x[0] + x[1] * x[1] + x[2] * x[2]),
+            kinetic: 0.5 * self.inertia * x[OMEGA] * x[OMEGA],
+        }
+    }
+
+    fn commit(&mut self, x: State, t: f64) {
+        self.x = x;
+        self.t = t;
+        if !(0.0..TAU).contains(&self.x[THETA]) {
+            self.x[THETA] = self.x[THETA].rem_euclid(TAU);
+        }
+        self.stats.steps += 1;
+    }
+}
+
+impl Plant for BldcPlant {
+    fn time_s(&self) -> f64 {
+        self.t
+    }
+
+    fn set_gates(&mut self, gates: &Gates) {
+        let before = self.start.v_term;
+        let old = self.gates;
+        self.gates = *gates;
+        self.refresh_start();
+        // Ringing is excited by the largest switching-node step among the legs that switched.
+        let mut dv: f64 = 0.0;
+        for p in Phase::ALL {
+            if old.high.get(p) != gates.high.get(p) || old.low.get(p) != gates.low.get(p) {
+                let d = self.start.v_term.get(p) - before.get(p);
+                if d.abs() > dv.abs() {
+                    dv = d;
+                }
+            }
+        }
+        self.cmp.excite(self.t, dv);
+    }
+
+    fn advance(&mut self, until: Ticks, watch: Abc<bool>) -> PlantStop {
+        let t_end = until.seconds();
+        loop {
+            let t0 = self.t;
+            if t0 >= t_end - 1e-15 {
+                self.t = self.t.max(t_end);
+                return PlantStop::Reached;
+            }
+            let tick0 = Self::tick_of(t0);
+            let mut t1 = t_end.min(t0 + self.h_max);
+            if let Some(tv) = self.cmp.next_visible_change(tick0, watch) {
+                t1 = t1.min(tv.seconds());
+            }
+            let x0 = self.x;
+            let mut x1 = self.rk4(&x0, t1 - t0);
+            let mut s1 = self.solve_at(&x1);
+            let mut event = None;
+            if self.same_instant_events < 8 {
+                if let Some(p) = self.triggered(&x1, &s1) {
+                    let h = self.locate(&x0, t1 - t0, p);
+                    x1 = self.rk4(&x0, h);
+                    s1 = self.solve_at(&x1);
+                    t1 = t0 + h;
+                    event = Some(p);
+                }
+            }
+            let cur0 = self.cur;
+            self.cmp.update(t0, t1, &self.start.v_term, self.start.v_n, &s1.v_term, s1.v_n);
+            self.cur.update(t0, t1, self.start.i_shunt, s1.i_shunt);
+            if let Some(tv) = self.cmp.next_visible_change(tick0, watch) {
+                let tvs = tv.seconds();
+                if tvs < t1 - 1e-15 {
+                    // A watched output changes inside the step: cut the step there.
+                    self.cmp.truncate_at(tv);
+                    x1 = self.rk4(&x0, tvs - t0);
+                    s1 = self.solve_at(&x1);
+                    self.cur = cur0;
+                    self.cur.update(t0, tvs, self.start.i_shunt, s1.i_shunt);
+                    self.stats.retries += 1;
+                    self.commit(x1, tvs);
+                    self.start = s1;
+                    self.same_instant_events = 0;
+                    return PlantStop::Sensing(tv);
+                }
+            }
+            self.commit(x1, t1);
+            if let Some(p) = event {
+                if self.modes.get(p).is_diode() {
+                    // The diode current reached zero: exactly zero, sum kept at zero.
+                    let k = p.index();
+                    let residual = self.x[k];
+                    self.x[k] = 0.0;
+                    if let Some(q) = Phase::ALL
+                        .into_iter()
+                        .filter(|&q| q != p && self.modes.get(q).conducts())
+                        .max_by(|a, b| self.x[a.index()].abs().total_cmp(&self.x[b.index()].abs()))
+                    {
+                        self.x[q.index()] += residual;
+                    }
+                }
+                self.same_instant_events = if t1 - t0 < 1e-12 { self.same_instant_events + 1 } else { 0 };
+                self.refresh_start();
+                self.stats.diode_events += 1;
+                return PlantStop::Diode;
+            }
+            self.same_instant_events = 0;
+            self.start = s1;
+            if let Some(tv) = self.cmp.next_visible_change(tick0, watch) {
+                if (tv.seconds() - t1).abs() < 1e-15 {
+                    return PlantStop::Sensing(tv);
+                }
+            }
+        }
+    }
+
+    fn sensed(&self, at: Ticks) -> Sensed {
+        Sensed { zc: self.cmp.outputs_at(at), current_code: self.cur.code_at(at) }
+    }
+}

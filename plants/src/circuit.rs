@@ -1,0 +1,345 @@
+//! The bridge + Y-connected windings as an electrical network with switched topology.
+//!
+//! Per phase (current i_x into the winding positive, neutral carries no current):
+//!
+//! ```text
+//! v_x − v_n = R·i_x + L·di_x/dt + e_x,   L = Lp + M,   Σ_conducting i_x = 0
+//! ```
+//!
+//! The −M·Σ_{y≠x} di_y/dt term of SPEC §1 becomes +M·di_x/dt because the currents sum to
+//! zero. A conducting leg drives its terminal as a source behind a resistance:
+//! `v_x = V_src − R_src·i_x` (+ the shunt drop `R_sh·i_sh` for legs tied to the low rail):
+//!
+//! | conduction  | V_src          | R_src | current sign |
+//! |-------------|----------------|-------|--------------|
+//! | high switch | V_DD           | R_on  | any          |
+//! | low switch  | 0              | R_on  | any          |
+//! | high diode  | V_DD + V_f     | R_d   | i_x < 0      |
+//! | low diode   | −V_f           | R_d   | i_x > 0      |
+//!
+//! Summing the conducting phases' equations gives v_n explicitly, so no matrix is solved.
+//! An open phase carries no current and its terminal sits at v_n + e_x. With fewer than two
+//! conducting phases nothing fixes v_n: one switched-on phase pins it to V_src − e_x; with
+//! none, the neutral rests at −Σe/3 (symmetric parasitic capacitance to ground), moved just
+//! enough to keep every terminal inside the diode clamps [−V_f, V_DD + V_f].
+
+use crate::params::{MotorParams, PowerStageParams};
+use drive_core::{Abc, Gates, Phase};
+
+/// How one leg conducts.
+#[derive(Copy, Clone, Debug, Default, PartialEq, Eq, Hash)]
+pub enum Conduction {
+    /// High-side switch on.
+    SwitchHigh,
+    /// Low-side switch on.
+    SwitchLow,
+    /// Current returning to V_DD through the high-side diode (i_x < 0).
+    DiodeHigh,
+    /// Current drawn from the low rail through the low-side diode (i_x > 0).
+    DiodeLow,
+    /// No current; the terminal floats at v_n + e_x.
+    #[default]
+    Open,
+}
+
+impl Conduction {
+    /// Whether the leg carries (or may carry) current.
+    pub fn conducts(self) -> bool {
+        self != Conduction::Open
+    }
+    /// Whether the leg is tied to the low rail (through the shunt).
+    pub fn is_low(self) -> bool {
+        matches!(self, Conduction::SwitchLow | Conduction::DiodeLow)
+    }
+    /// Whether the leg is tied to V_DD.
+    pub fn is_high(self) -> bool {
+        matches!(self, Conduction::SwitchHigh | Conduction::DiodeHigh)
+    }
+    /// Whether a diode conducts.
+    pub fn is_diode(self) -> bool {
+        matches!(self, Conduction::DiodeHigh | Conduction::DiodeLow)
+    }
+}
+
+/// Instantaneous powers [W] (for the energy ledger).
+#[derive(Copy, Clone, Debug, Default, PartialEq)]
+pub struct Powers {
+    /// Drawn from the supply: V_DD·Σ_high i_x.
+    pub supply: f64,
+    /// Winding copper loss R·Σi².
+    pub copper: f64,
+    /// Switch conduction loss R_on·i².
+    pub switch: f64,
+    /// Diode loss V_f·|i| + R_d·i².
+    pub diode: f64,
+    /// Shunt loss R_sh·i_sh².
+    pub shunt: f64,
+    /// Converted to mechanical power: Σ e_x·i_x.
+    pub airgap: f64,
+}
+
+/// The network's state at one instant.
+#[derive(Copy, Clone, Debug, Default, PartialEq)]
+pub struct Solution {
+    /// di_x/dt [A/s].
+    pub di: Abc<f64>,
+    /// Terminal voltages to ground [V].
+    pub v_term: Abc<f64>,
+    /// Neutral voltage to ground [V].
+    pub v_n: f64,
+    /// Shunt current, positive towards ground [A].
+    pub i_shunt: f64,
+    /// Powers.
+    pub powers: Powers,
+}
+
+/// Constant network parameters.
+#[derive(Copy, Clone, Debug)]
+pub struct Circuit {
+    r: f64,
+    inv_l: f64,
+    vdd: f64,
+    r_on: f64,
+    vf: f64,
+    r_d: f64,
+    r_sh: f64,
+}
+
+impl Circuit {
+    /// From validated parameters.
+    pub fn new(m: &MotorParams, p: &PowerStageParams) -> Self {
+        Circuit {
+            r: m.resistance_ohm,
+            inv_l: 1.0 / m.phase_inductance_h(),
+            vdd: p.supply_v,
+            r_on: p.switch_on_resistance_ohm,
+            vf: p.diode_forward_v,
+            r_d: p.diode_resistance_ohm,
+            r_sh: p.shunt_ohm,
+        }
+    }
+
+    /// Supply voltage [V].
+    pub fn supply_v(&self) -> f64 {
+        self.vdd
+    }
+
+    fn source(&self, c: Conduction) -> (f64, f64) {
+        match c {
+            Conduction::SwitchHigh => (self.vdd, self.r_on),
+            Conduction::SwitchLow => (0.0, self.r_on),
+            Conduction::DiodeHigh => (self.vdd + self.vf, self.r_d),
+            Conduction::DiodeLow => (-self.vf, self.r_d),
+            Conduction::Open => (0.0, 0.0),
+        }
+    }
+
+    /// Solves the network for given conduction states, currents and back-EMFs.
+    pub fn solve(&self, modes: &Abc<Conduction>, i: &Abc<f64>, e: &Abc<f64>) -> Solution {
+        let mut i_sh = 0.0;
+        let mut n_c = 0u32;
+        let mut n_switch = 0u32;
+        for p in Phase::ALL {
+            let m = modes.get(p);
+            if m.is_low() {
+                i_sh -= i.get(p);
+            }
+            if m.conducts() {
+                n_c += 1;
+                if !m.is_diode() {
+                    n_switch += 1;
+                }
+            }
+        }
+        let v_lr = self.r_sh * i_sh;
+        let mut v = Abc::splat(0.0);
+        let mut sum = 0.0;
+        let mut pw = Powers { shunt: self.r_sh * i_sh * i_sh, ..Powers::default() };
+        for p in Phase::ALL {
+            let m = modes.get(p);
+            if !m.conducts() {
+                continue;
+            }
+            let ix = i.get(p);
+            let (vs, rs) = self.source(m);
+            let vx = vs + if m.is_low() { v_lr } else { 0.0 } - rs * ix;
+            *v.get_mut(p) = vx;
+            sum += vx - self.r * ix - e.get(p);
+            if m.is_high() {
+                pw.supply += self.vdd * ix;
+            }
+            if m.is_diode() {
+                pw.diode += self.vf * ix.abs() + self.r_d * ix * ix;
+            } else {
+                pw.switch += self.r_on * ix * ix;
+            }
+            pw.copper += self.r * ix * ix;
+            pw.airgap += e.get(p) * ix;
+        }
+        let mut di = Abc::splat(0.0);
+        let v_n = if n_c >= 2 {
+            let v_n = sum / n_c as f64;
+            for p in Phase::ALL {
+                if modes.get(p).conducts() {
+                    *di.get_mut(p) = (v.get(p) - v_n - self.r * i.get(p) - e.get(p)) * self.inv_l;
+                }
+            }
+            v_n
+        } else if n_switch == 1 {
+            let p = Phase::ALL.into_iter().find(|&p| modes.get(p).conducts()).unwrap_or(Phase::U);
+            v.get(p) - e.get(p)
+        } else {
+            self.floating_neutral(e, v_lr)
+        };
+        for p in Phase::ALL {
+            let m = modes.get(p);
+            if !m.conducts() || (n_c < 2 && m.is_diode()) {
+                *v.get_mut(p) = v_n + e.get(p);
+            }
+        }
+        Solution { di, v_term: v, v_n, i_shunt: i_sh, powers: pw }
+    }
+
+    /// Neutral voltage with no conducting path: −Σe/3, clamped so that every terminal stays
+    /// within the diode clamps.
+    fn floating_neutral(&self, e: &Abc<f64>, v_lr: f64) -> f64 {
+        let centre = -(e.u + e.v + e.w) / 3.0;
+        let emax = e.u.max(e.v).max(e.w);
+        let emin = e.u.min(e.v).min(e.w);
+        let lo = v_lr - self.vf - emin;
+        let hi = self.vdd + self.vf - emax;
+        if lo > hi { 0.5 * (lo + hi) } else { centre.clamp(lo, hi) }
+    }
+
+    /// How far an open terminal is outside the diode clamps [V]: > 0 above V_DD + V_f,
+    /// < 0 below the low rail − V_f, 0 inside.
+    pub fn clamp_violation(&self, v_term: f64, i_shunt: f64) -> f64 {
+        let lo = self.r_sh * i_shunt - self.vf;
+        let hi = self.vdd + self.vf;
+        if v_term > hi {
+            v_term - hi
+        } else if v_term < lo {
+            v_term - lo
+        } else {
+            0.0
+        }
+    }
+
+    /// Conduction states for `gates` and currents `i`: a switched-on leg conducts; an off
+    /// leg with current freewheels through the diode its current direction selects; an
+    /// off leg without current is open unless its terminal would leave the clamps, in
+    /// which case its diode starts conducting (if the network lets current flow that way).
+    pub fn resolve(&self, gates: &Gates, i: &Abc<f64>, e: &Abc<f64>) -> Abc<Conduction> {
+        let mut modes = Abc::from_fn(|p| {
+            if gates.high.get(p) {
+                Conduction::SwitchHigh
+            } else if gates.low.get(p) {
+                Conduction::SwitchLow
+            } else if i.get(p) > 0.0 {
+                Conduction::DiodeLow
+            } else if i.get(p) < 0.0 {
+                Conduction::DiodeHigh
+            } else {
+                Conduction::Open
+            }
+        });
+        for _ in 0..3 {
+            let sol = self.solve(&modes, i, e);
+            let mut worst: Option<(Phase, f64)> = None;
+            for p in Phase::ALL {
+                let open = !modes.get(p).conducts();
+                let viol = self.clamp_violation(sol.v_term.get(p), sol.i_shunt);
+                if open && viol.abs() > 1e-9 && worst.is_none_or(|(_, w)| viol.abs() > w.abs()) {
+                    worst = Some((p, viol));
+                }
+            }
+            let Some((p, viol)) = worst else { break };
+            let diode = if viol < 0.0 { Conduction::DiodeLow } else { Conduction::DiodeHigh };
+            let mut trial = modes;
+            *trial.get_mut(p) = diode;
+            let conducting = Phase::ALL.iter().filter(|&&q| trial.get(q).conducts()).count();
+            if conducting < 2 {
+                // Only a diode pair can carry current: the rectifier case (|e spread| > V_DD + 2V_f).
+                let (hi_p, lo_p) = extreme_phases(e);
+                if modes.get(hi_p).conducts() || modes.get(lo_p).conducts() {
+                    break;
+                }
+                *trial.get_mut(hi_p) = Conduction::DiodeHigh;
+                *trial.get_mut(lo_p) = Conduction::DiodeLow;
+            }
+            let s = self.solve(&trial, i, e);
+            let consistent = Phase::ALL.iter().all(|&q| match (modes.get(q), trial.get(q)) {
+                (Conduction::Open, Conduction::DiodeLow) => s.di.get(q) >= 0.0,
+                (Conduction::Open, Conduction::DiodeHigh) => s.di.get(q) <= 0.0,
+                _ => true,
+            });
+            if !consistent {
+                break;
+            }
+            modes = trial;
+        }
+        modes
+    }
+}
+
+fn extreme_phases(e: &Abc<f64>) -> (Phase, Phase) {
+    let mut hi = Phase::U;
+    let mut lo = Phase::U;
+    for p in Phase::ALL {
+        if e.get(p) > e.get(hi) {
+            hi = p;
+        }
+        if e.get(p) < e.get(lo) {
+            lo = p;
+        }
+    }
+    (hi, lo)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn circuit() -> Circuit {
+        Circuit::new(&MotorParams::default(), &PowerStageParams::default())
+    }
+
+    #[test]
+    fn two_phase_conduction_splits_supply_symmetrically() {
+        let c = circuit();
+        let modes = Abc { u: Conduction::SwitchHigh, v: Conduction::SwitchLow, w: Conduction::Open };
+        let s = c.solve(&modes, &Abc::splat(0.0), &Abc::splat(0.0));
+        // i = 0: v_u = 12, v_v = 0, v_n = 6, di_u = 6/L.
+        assert!((s.v_n - 6.0).abs() < 1e-12);
+        assert!((s.di.u - 6.0 / 1e-3).abs() < 1e-6);
+        assert!((s.di.u + s.di.v).abs() < 1e-9);
+        assert!((s.v_term.w - 6.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn power_balance_is_algebraic() {
+        let c = circuit();
+        let modes = Abc { u: Conduction::DiodeLow, v: Conduction::SwitchLow, w: Conduction::SwitchHigh };
+        let i = Abc { u: 0.3, v: -0.5, w: 0.2 };
+        let e = Abc { u: 0.4, v: -0.1, w: -0.3 };
+        let s = c.solve(&modes, &i, &e);
+        let l = MotorParams::default().phase_inductance_h();
+        let magnetic = l * (i.u * s.di.u + i.v * s.di.v + i.w * s.di.w);
+        let p = s.powers;
+        let rhs = p.copper + p.switch + p.diode + p.shunt + p.airgap + magnetic;
+        assert!((p.supply - rhs).abs() < 1e-12, "{} vs {}", p.supply, rhs);
+    }
+
+    #[test]
+    fn floating_phase_below_clamp_turns_its_low_diode_on() {
+        // High-side chop off-time with u freewheeling, v low, w open and a strongly negative e_w.
+        let c = circuit();
+        let mut g = Gates::OFF;
+        g.low.v = true;
+        let i = Abc { u: 0.2, v: -0.2, w: 0.0 };
+        let e = Abc { u: 2.0, v: 2.0, w: -4.0 };
+        let m = c.resolve(&g, &i, &e);
+        assert_eq!(m.u, Conduction::DiodeLow);
+        assert_eq!(m.w, Conduction::DiodeLow);
+    }
+}

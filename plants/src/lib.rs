@@ -1,0 +1,15 @@
+//! plants: the published BLDC motor, its six-switch bridge, and the sensing front end.
+#![forbid(unsafe_code)]
+
+pub mod bldc;
+pub mod circuit;
+pub mod emf;
+pub mod params;
+pub mod sensing;
+
+pub use bldc::{BldcPlant, EnergyLedger, Observation, PlantStats};
+pub use circuit::Conduction;
+pub use params::{
+    BackEmfShape, ComparatorParams, CurrentSenseParams, MotorParams, PlantParams, PowerStageParams, SensingParams,
+    SolverParams,
+};

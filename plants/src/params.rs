@@ -1,0 +1,380 @@
+//! Plant parameters: motor, power stage, sensing and solver, each serde-able and validated.
+//!
+//! Defaults are the published motor (SPEC §1) plus the values this project chose where the
+//! source is silent or unreliable; each such choice is justified on its field.
+
+use drive_core::error::{ParamError, check_non_negative, check_positive, check_range};
+use drive_core::{Abc, Ticks};
+use serde::{Deserialize, Serialize};
+
+/// Shape of the per-phase back-EMF, `e_x = λr·ωe·f(θx)`, with θu = θe, θv = θe − 120°,
+/// θw = θe + 120°. Every shape is odd and half-wave symmetric, so crossings stay at 0°/180°.
+#[derive(Copy, Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
+pub enum BackEmfShape {
+    /// f(θ) = sin θ: the published model.
+    Sinusoidal,
+    /// Trapezoid of peak 1 with a flat top of `flat_top_deg` (0..180) and linear ramps through
+    /// the crossings; 120° is the classic BLDC shape.
+    Trapezoidal {
+        /// Width of the flat top [electrical degrees].
+        flat_top_deg: f64,
+    },
+    /// f(θ) = sin θ + h3·sin 3θ + h5·sin 5θ (per-unit harmonic amplitudes).
+    Harmonic {
+        /// Third-harmonic amplitude [p.u. of the fundamental].
+        third: f64,
+        /// Fifth-harmonic amplitude [p.u. of the fundamental].
+        fifth: f64,
+    },
+}
+
+/// The motor: 9-slot, 12-pole outer-rotor spindle, Y-connected, neutral brought out.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct MotorParams {
+    /// Number of poles P (θe = P/2·θm). Default 12. Rule: even, 2..=200.
+    pub poles: u32,
+    /// PM flux-linkage amplitude per phase λr [Wb·turn]. Default 7.62e-4. Rule: > 0.
+    pub flux_linkage_wb: f64,
+    /// Phase self inductance Lp [H]. Default 0.63e-3. Rule: > 0.
+    pub self_inductance_h: f64,
+    /// Mutual inductance between two phases M [H] (enters as −M·di_y/dt). Default 0.37e-3.
+    /// Rule: ≥ 0. With no neutral current the phases see L = Lp + M.
+    pub mutual_inductance_h: f64,
+    /// Phase resistance R [Ω]. Default 2.2. Rule: > 0.
+    pub resistance_ohm: f64,
+    /// Rotor inertia J [kg·m²]. Default 17e-7. Rule: > 0.
+    pub inertia_kgm2: f64,
+    /// Viscous friction Bm [N·m·s/rad]. Default 1.0e-6. Rule: ≥ 0.
+    ///
+    /// The printed 5e-3 N·m/(rad/s) would need 0.52 N·m (≈ 70 A) at 1000 rpm, impossible for
+    /// a motor sensed over 0–0.5 A. 1.0e-6 gives 0.52 mN·m at 5000 rpm, i.e. a no-load current
+    /// of ≈ 0.07 A with this motor's torque constant (≈ 7.6 mN·m/A in 120° drive): typical of
+    /// optical-drive spindles and leaves the 0.5 A range for load and acceleration. The
+    /// mechanical time constant J/Bm is then 1.7 s.
+    pub viscous_friction_nms: f64,
+    /// Back-EMF shape. Default sinusoidal (published).
+    pub back_emf: BackEmfShape,
+}
+
+impl Default for MotorParams {
+    fn default() -> Self {
+        MotorParams {
+            poles: 12,
+            flux_linkage_wb: 7.62e-4,
+            self_inductance_h: 0.63e-3,
+            mutual_inductance_h: 0.37e-3,
+            resistance_ohm: 2.2,
+            inertia_kgm2: 17e-7,
+            viscous_friction_nms: 1.0e-6,
+            back_emf: BackEmfShape::Sinusoidal,
+        }
+    }
+}
+
+impl MotorParams {
+    /// Checks every rule; the error names the first field that breaks one.
+    pub fn validate(&self) -> Result<(), ParamError> {
+        if self.poles == 0 || self.poles % 2 != 0 || self.poles > 200 {
+            return Err(ParamError::new("motor.poles", self.poles as f64, "must be even and 2..=200"));
+        }
+        check_positive("motor.flux_linkage_wb", self.flux_linkage_wb)?;
+        check_positive("motor.self_inductance_h", self.self_inductance_h)?;
+        check_non_negative("motor.mutual_inductance_h", self.mutual_inductance_h)?;
+        check_positive("motor.resistance_ohm", self.resistance_ohm)?;
+        check_positive("motor.inertia_kgm2", self.inertia_kgm2)?;
+        check_non_negative("motor.viscous_friction_nms", self.viscous_friction_nms)?;
+        match self.back_emf {
+            BackEmfShape::Sinusoidal => {}
+            BackEmfShape::Trapezoidal { flat_top_deg } => check_range(
+                "motor.back_emf.flat_top_deg",
+                flat_top_deg,
+                0.0,
+                179.0,
+                "must be 0..=179 electrical degrees",
+            )?,
+            BackEmfShape::Harmonic { third, fifth } => {
+                check_range("motor.back_emf.third", third, -1.0, 1.0, "must be -1..=1 per unit")?;
+                check_range("motor.back_emf.fifth", fifth, -1.0, 1.0, "must be -1..=1 per unit")?;
+            }
+        }
+        Ok(())
+    }
+
+    /// Pole pairs P/2.
+    pub fn pole_pairs(&self) -> f64 {
+        self.poles as f64 / 2.0
+    }
+
+    /// Inductance seen by each phase current when the neutral carries no current: Lp + M [H].
+    pub fn phase_inductance_h(&self) -> f64 {
+        self.self_inductance_h + self.mutual_inductance_h
+    }
+}
+
+/// Six-switch bridge with anti-parallel diodes and a ground shunt.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct PowerStageParams {
+    /// Supply V_DD [V]. Default 12. Rule: > 0, ≤ 1000.
+    ///
+    /// Not published. 12 V is the supply of optical-drive spindles; with this motor's
+    /// line-to-line back-EMF (≈ 1.3 mV per electrical rad/s) it allows ≈ 15 000 rpm no-load,
+    /// which covers the chip's 14-bit speed command, while the current loop keeps the
+    /// winding current inside the 0–0.5 A sensing range.
+    pub supply_v: f64,
+    /// On-resistance of each switch [Ω]. Default 0.2. Rule: ≥ 0.
+    pub switch_on_resistance_ohm: f64,
+    /// Diode forward voltage [V]. Default 0.7. Rule: ≥ 0.
+    pub diode_forward_v: f64,
+    /// Diode slope resistance [Ω]. Default 0.05. Rule: ≥ 0.
+    pub diode_resistance_ohm: f64,
+    /// Current-sense shunt between the low-side switches and ground [Ω]. Default 0.25.
+    /// Rule: ≥ 0. It is part of the power circuit (its drop lifts the low rail).
+    pub shunt_ohm: f64,
+    /// Dead time inserted before every switch turn-on [s]. Default 0 (the chip chops one
+    /// side only). Rule: 0..=10 µs; rounded to whole 20 ns ticks.
+    pub dead_time_s: f64,
+}
+
+impl Default for PowerStageParams {
+    fn default() -> Self {
+        PowerStageParams {
+            supply_v: 12.0,
+            switch_on_resistance_ohm: 0.2,
+            diode_forward_v: 0.7,
+            diode_resistance_ohm: 0.05,
+            shunt_ohm: 0.25,
+            dead_time_s: 0.0,
+        }
+    }
+}
+
+impl PowerStageParams {
+    /// Checks every rule.
+    pub fn validate(&self) -> Result<(), ParamError> {
+        check_range("power_stage.supply_v", self.supply_v, 1e-3, 1000.0, "must be > 0 and <= 1000 V")?;
+        check_non_negative("power_stage.switch_on_resistance_ohm", self.switch_on_resistance_ohm)?;
+        check_non_negative("power_stage.diode_forward_v", self.diode_forward_v)?;
+        check_non_negative("power_stage.diode_resistance_ohm", self.diode_resistance_ohm)?;
+        check_non_negative("power_stage.shunt_ohm", self.shunt_ohm)?;
+        check_range("power_stage.dead_time_s", self.dead_time_s, 0.0, 10e-6, "must be 0..=10e-6 s")?;
+        Ok(())
+    }
+
+    /// Dead time in master ticks.
+    pub fn dead_time(&self) -> Ticks {
+        Ticks::from_seconds(self.dead_time_s).unwrap_or(Ticks::ZERO)
+    }
+}
+
+/// Shunt amplifier, anti-alias filter and ADC (SPEC §2).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct CurrentSenseParams {
+    /// Amplifier gain [V/V]. Default 80 (0.125 V → 10 V). Rule: > 0.
+    pub amplifier_gain: f64,
+    /// Amplifier output swing: the output is clipped to 0..this [V]. Default 10. Rule: > 0.
+    pub amplifier_max_v: f64,
+    /// First-order low-pass cut-off [Hz]. Default 25 000. Rule: 10 Hz ..= 10 MHz.
+    pub filter_cutoff_hz: f64,
+    /// ADC resolution [bits]. Default 12. Rule: 1..=16.
+    pub adc_bits: u32,
+    /// ADC full scale [V]. Default 10. Rule: > 0.
+    pub adc_full_scale_v: f64,
+    /// Conversion time [s]: samples are taken back to back at this period and each result
+    /// becomes readable one period after its sample. Default 20 µs. Rule: 0.1 µs ..= 1 s.
+    pub adc_conversion_s: f64,
+}
+
+impl Default for CurrentSenseParams {
+    fn default() -> Self {
+        CurrentSenseParams {
+            amplifier_gain: 80.0,
+            amplifier_max_v: 10.0,
+            filter_cutoff_hz: 25e3,
+            adc_bits: 12,
+            adc_full_scale_v: 10.0,
+            adc_conversion_s: 20e-6,
+        }
+    }
+}
+
+impl CurrentSenseParams {
+    /// Checks every rule.
+    pub fn validate(&self) -> Result<(), ParamError> {
+        check_positive("sensing.current.amplifier_gain", self.amplifier_gain)?;
+        check_positive("sensing.current.amplifier_max_v", self.amplifier_max_v)?;
+        check_range("sensing.current.filter_cutoff_hz", self.filter_cutoff_hz, 10.0, 10e6, "must be 10 Hz ..= 10 MHz")?;
+        if !(1..=16).contains(&self.adc_bits) {
+            return Err(ParamError::new("sensing.current.adc_bits", self.adc_bits as f64, "must be 1..=16"));
+        }
+        check_positive("sensing.current.adc_full_scale_v", self.adc_full_scale_v)?;
+        check_range("sensing.current.adc_conversion_s", self.adc_conversion_s, 0.1e-6, 1.0, "must be 0.1e-6 ..= 1 s")?;
+        Ok(())
+    }
+
+    /// Conversion period in ticks (at least one).
+    pub fn conversion(&self) -> Ticks {
+        Ticks(Ticks::from_seconds(self.adc_conversion_s).map_or(1, |t| t.0.max(1)))
+    }
+}
+
+/// The phase-vs-neutral comparators and their analog front end (SPEC §2).
+///
+/// Each comparator sees `s_x = y_x − y_n − offset_x + ring_x + noise_x`, where `y_x` and
+/// `y_n` are the terminal and neutral voltages through separate first-order RC filters.
+/// The defaults are typical of a discrete front end: 1 µs RC with a 5 % mismatch between
+/// the phase path and the neutral path, a few mV of offset, 10 mV hysteresis, 100 ns delay.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct ComparatorParams {
+    /// RC time constant of the phase-terminal paths [s]. Default 1.0 µs. Rule: 1 ns ..= 1 ms.
+    pub phase_filter_tau_s: f64,
+    /// RC time constant of the neutral path [s]. Default 1.05 µs (5 % mismatch: a common-mode
+    /// step of ΔV leaves a differential spike of ≈ ΔV·0.05/e). Rule: 1 ns ..= 1 ms.
+    pub neutral_filter_tau_s: f64,
+    /// Input offset per comparator [V] (positive: output switches later on a rising input).
+    /// Default u +2 mV, v −1.5 mV, w +1 mV. Rule: |offset| ≤ 1 V.
+    pub offset_v: Abc<f64>,
+    /// Hysteresis, full width [V]: the output rises above +h/2 and falls below −h/2.
+    /// Default 10 mV. Rule: 0 ..= 1 V.
+    pub hysteresis_v: f64,
+    /// Propagation delay [s], rounded to 20 ns ticks. Default 100 ns. Rule: 0 ..= 100 µs.
+    pub delay_s: f64,
+    /// Peak input-referred noise [V], uniform in ±this, held for `noise_interval_s`.
+    /// Default 1 mV (peak-to-peak below the hysteresis, so a clean input never chatters).
+    /// Rule: 0 ..= 1 V.
+    pub noise_v: f64,
+    /// Interval between independent noise samples [s] (noise bandwidth ≈ 1/(2·interval)).
+    /// Default 0.5 µs. Rule: 20 ns ..= 1 ms, rounded to ticks.
+    pub noise_interval_s: f64,
+    /// Ringing coupled into every comparator input per volt of switching-node step
+    /// [V/V]. Default 0.02. Rule: 0 ..= 1.
+    pub ring_gain: f64,
+    /// Ringing frequency [Hz] (parasitic L–C of the switching node). Default 5 MHz.
+    /// Rule: 1 kHz ..= 1 GHz.
+    pub ring_frequency_hz: f64,
+    /// Ringing decay time constant [s]. Default 0.2 µs. Rule: 1 ns ..= 1 ms.
+    pub ring_decay_s: f64,
+}
+
+impl Default for ComparatorParams {
+    fn default() -> Self {
+        ComparatorParams {
+            phase_filter_tau_s: 1.0e-6,
+            neutral_filter_tau_s: 1.05e-6,
+            offset_v: Abc { u: 2e-3, v: -1.5e-3, w: 1e-3 },
+            hysteresis_v: 10e-3,
+            delay_s: 100e-9,
+            noise_v: 1e-3,
+            noise_interval_s: 0.5e-6,
+            ring_gain: 0.02,
+            ring_frequency_hz: 5e6,
+            ring_decay_s: 0.2e-6,
+        }
+    }
+}
+
+impl ComparatorParams {
+    /// Checks every rule.
+    pub fn validate(&self) -> Result<(), ParamError> {
+        check_range("sensing.comparator.phase_filter_tau_s", self.phase_filter_tau_s, 1e-9, 1e-3, "must be 1e-9 ..= 1e-3 s")?;
+        check_range("sensing.comparator.neutral_filter_tau_s", self.neutral_filter_tau_s, 1e-9, 1e-3, "must be 1e-9 ..= 1e-3 s")?;
+        for p in drive_core::Phase::ALL {
+            let f = ["sensing.comparator.offset_v.u", "sensing.comparator.offset_v.v", "sensing.comparator.offset_v.w"];
+            check_range(f[p.index()], self.offset_v.get(p), -1.0, 1.0, "must be -1 ..= 1 V")?;
+        }
+        check_range("sensing.comparator.hysteresis_v", self.hysteresis_v, 0.0, 1.0, "must be 0 ..= 1 V")?;
+        check_range("sensing.comparator.delay_s", self.delay_s, 0.0, 100e-6, "must be 0 ..= 100e-6 s")?;
+        check_range("sensing.comparator.noise_v", self.noise_v, 0.0, 1.0, "must be 0 ..= 1 V")?;
+        check_range("sensing.comparator.noise_interval_s", self.noise_interval_s, 20e-9, 1e-3, "must be 20e-9 ..= 1e-3 s")?;
+        check_range("sensing.comparator.ring_gain", self.ring_gain, 0.0, 1.0, "must be 0 ..= 1")?;
+        check_range("sensing.comparator.ring_frequency_hz", self.ring_frequency_hz, 1e3, 1e9, "must be 1e3 ..= 1e9 Hz")?;
+        check_range("sensing.comparator.ring_decay_s", self.ring_decay_s, 1e-9, 1e-3, "must be 1e-9 ..= 1e-3 s")?;
+        Ok(())
+    }
+
+    /// Propagation delay in ticks.
+    pub fn delay(&self) -> Ticks {
+        Ticks::from_seconds(self.delay_s).unwrap_or(Ticks::ZERO)
+    }
+
+    /// Noise hold interval in ticks (at least one).
+    pub fn noise_interval(&self) -> Ticks {
+        Ticks(Ticks::from_seconds(self.noise_interval_s).map_or(1, |t| t.0.max(1)))
+    }
+}
+
+/// All sensing: current channel, comparators, and the seed of every random process.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct SensingParams {
+    /// Shunt-current channel.
+    pub current: CurrentSenseParams,
+    /// Zero-crossing comparators.
+    pub comparator: ComparatorParams,
+    /// Seed of the comparator noise. Default 1. The same seed reproduces every glitch.
+    pub seed: u64,
+}
+
+impl Default for SensingParams {
+    fn default() -> Self {
+        SensingParams { current: CurrentSenseParams::default(), comparator: ComparatorParams::default(), seed: 1 }
+    }
+}
+
+impl SensingParams {
+    /// Checks every rule.
+    pub fn validate(&self) -> Result<(), ParamError> {
+        self.current.validate()?;
+        self.comparator.validate()
+    }
+}
+
+/// Numerical settings of the plant integrator.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct SolverParams {
+    /// Longest RK4 step between events [s]. Default 20 µs (≈ τe/23 with τe = L/R = 0.45 ms,
+    /// local error ≈ (h/τe)^5/120 ≈ 1e-9). Rule: 0.1 µs ..= 100 µs.
+    pub max_step_s: f64,
+}
+
+impl Default for SolverParams {
+    fn default() -> Self {
+        SolverParams { max_step_s: 20e-6 }
+    }
+}
+
+impl SolverParams {
+    /// Checks every rule.
+    pub fn validate(&self) -> Result<(), ParamError> {
+        check_range("solver.max_step_s", self.max_step_s, 0.1e-6, 100e-6, "must be 0.1e-6 ..= 100e-6 s")
+    }
+}
+
+/// Everything the motor + bridge + sensing plant needs.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct PlantParams {
+    /// Motor.
+    pub motor: MotorParams,
+    /// Power stage.
+    pub power_stage: PowerStageParams,
+    /// Sensing.
+    pub sensing: SensingParams,
+    /// Integrator.
+    pub solver: SolverParams,
+}
+
+impl PlantParams {
+    /// Checks every rule of every section.
+    pub fn validate(&self) -> Result<(), ParamError> {
+        self.motor.validate()?;
+        self.power_stage.validate()?;
+        self.sensing.validate()?;
+        self.solver.validate()
+    }
+}

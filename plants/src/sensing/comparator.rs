@@ -1,0 +1,289 @@
+//! Phase-vs-neutral comparators with an explicit analog front end.
+//!
+//! Comparator x sees `s_x(t) = y_x(t) − y_n(t) − offset_x + ring(t) + noise_x(t)` where
+//! `y_x`, `y_n` are the terminal and neutral voltages through first-order RC filters with
+//! different time constants. A PWM edge moves terminal and neutral together by ≈ V_DD/2;
+//! the filter mismatch turns that common-mode step into a differential spike, and the
+//! switching node's ringing adds a damped sinusoid. Near a back-EMF crossing these flip the
+//! comparator: the glitches the zero-crossing guards exist to reject.
+//!
+//! The output has hysteresis (rises above +h/2, falls below −h/2), is decided on the 20 ns
+//! master-tick grid, and reaches the controller after a propagation delay. Toggles are found
+//! by scanning ticks only where bounds on the signal allow one, which keeps the comparators
+//! cheap while the input is far from its thresholds.
+
+use super::foh::Foh;
+use super::noise;
+use crate::params::ComparatorParams;
+use drive_core::{Abc, Phase, TICK_S, Ticks};
+
+const HISTORY: usize = 32;
+
+/// Recent toggles of one comparator, to apply the propagation delay.
+#[derive(Copy, Clone, Debug)]
+struct History {
+    ticks: [u64; HISTORY],
+    states: [bool; HISTORY],
+    len: usize,
+    head: usize,
+    /// State before the oldest retained toggle.
+    base: bool,
+}
+
+impl History {
+    fn new(state: bool) -> Self {
+        History { ticks: [0; HISTORY], states: [false; HISTORY], len: 0, head: 0, base: state }
+    }
+
+    fn push(&mut self, tick: u64, state: bool) {
+        if self.len == HISTORY {
+            let oldest = (self.head + HISTORY - self.len) % HISTORY;
+            self.base = self.states[oldest];
+            self.len -= 1;
+        }
+        self.ticks[self.head] = tick;
+        self.states[self.head] = state;
+        self.head = (self.head + 1) % HISTORY;
+        self.len += 1;
+    }
+
+    /// (tick, state) of the k-th newest toggle (k = 0 newest).
+    fn newest(&self, k: usize) -> (u64, bool) {
+        let idx = (self.head + HISTORY - 1 - k) % HISTORY;
+        (self.ticks[idx], self.states[idx])
+    }
+
+    fn state_at(&self, tick: u64) -> bool {
+        for k in 0..self.len {
+            let (t, s) = self.newest(k);
+            if t <= tick {
+                return s;
+            }
+        }
+        self.base
+    }
+
+    /// Earliest toggle tick strictly after `tick`.
+    fn first_after(&self, tick: u64) -> Option<u64> {
+        let mut found = None;
+        for k in 0..self.len {
+            let (t, _) = self.newest(k);
+            if t <= tick {
+                break;
+            }
+            found = Some(t);
+        }
+        found
+    }
+
+    /// Removes toggles after `tick` (used when an interval is integrated again, shorter).
+    fn truncate_after(&mut self, tick: u64) -> u64 {
+        let mut removed = 0;
+        while self.len > 0 && self.newest(0).0 > tick {
+            self.head = (self.head + HISTORY - 1) % HISTORY;
+            self.len -= 1;
+            removed += 1;
+        }
+        removed
+    }
+}
+
+/// The three comparators, their filters, the coupled ringing and the noise.
+#[derive(Copy, Clone, Debug)]
+pub struct ComparatorBank {
+    tau_p: f64,
+    tau_n: f64,
+    offset: Abc<f64>,
+    half_h: f64,
+    delay: u64,
+    noise_a: f64,
+    noise_n: u64,
+    seed: u64,
+    ring_gain: f64,
+    ring_w: f64,
+    ring_decay: f64,
+    y: Abc<f64>,
+    y_n: f64,
+    out: Abc<bool>,
+    hist: [History; 3],
+    /// Ringing phasor (re, im) referred to `ring_t`: ring(t) = Im(Z·e^{(−1/τr + jω)(t − ring_t)}).
+    ring: (f64, f64),
+    ring_t: f64,
+    toggles: u64,
+    /// Filter segments of the last update (phase paths, neutral) and its start time.
+    last: ([Foh; 3], Foh, f64),
+}
+
+impl ComparatorBank {
+    /// Comparators settled on the given terminal and neutral voltages.
+    pub fn new(p: &ComparatorParams, seed: u64, v_term: &Abc<f64>, v_n: f64) -> Self {
+        let offset = p.offset_v;
+        let out = Abc::from_fn(|x| v_term.get(x) - v_n - offset.get(x) > 0.0);
+        ComparatorBank {
+            tau_p: p.phase_filter_tau_s,
+            tau_n: p.neutral_filter_tau_s,
+            offset,
+            half_h: p.hysteresis_v / 2.0,
+            delay: p.delay().0,
+            noise_a: p.noise_v,
+            noise_n: p.noise_interval().0,
+            seed,
+            ring_gain: p.ring_gain,
+            ring_w: std::f64::consts::TAU * p.ring_frequency_hz,
+            ring_decay: p.ring_decay_s,
+            y: *v_term,
+            y_n: v_n,
+            out,
+            hist: [History::new(out.u), History::new(out.v), History::new(out.w)],
+            ring: (0.0, 0.0),
+            ring_t: 0.0,
+            toggles: 0,
+            last: ([Foh::new(0.0, 0.0, 0.0, 0.0, 1.0); 3], Foh::new(0.0, 0.0, 0.0, 0.0, 1.0), 0.0),
+        }
+    }
+
+    /// Adds ringing excited by a switching-node step of `dv` volts at time `t`.
+    pub fn excite(&mut self, t: f64, dv: f64) {
+        if self.ring_gain == 0.0 || dv == 0.0 {
+            return;
+        }
+        let (re, im) = self.ring_at_phasor(t);
+        self.ring = (re + self.ring_gain * dv, im);
+        self.ring_t = t;
+    }
+
+    fn ring_at_phasor(&self, t: f64) -> (f64, f64) {
+        if self.ring == (0.0, 0.0) {
+            return (0.0, 0.0);
+        }
+        let dt = t - self.ring_t;
+        let d = (-dt / self.ring_decay).exp();
+        if d * (self.ring.0.abs() + self.ring.1.abs()) < 1e-9 {
+            return (0.0, 0.0);
+        }
+        let (s, c) = (self.ring_w * dt).sin_cos();
+        (d * (self.ring.0 * c - self.ring.1 * s), d * (self.ring.0 * s + self.ring.1 * c))
+    }
+
+    fn ring_envelope(&self, t: f64) -> f64 {
+        if self.ring == (0.0, 0.0) {
+            return 0.0;
+        }
+        self.ring.0.hypot(self.ring.1) * (-(t - self.ring_t) / self.ring_decay).exp()
+    }
+
+    /// Advances the filters over [t0, t1] with terminal/neutral voltages varying linearly
+    /// from (`v0`, `vn0`) to (`v1`, `vn1`), recording every output toggle on the tick grid.
+    pub fn update(&mut self, t0: f64, t1: f64, v0: &Abc<f64>, vn0: f64, v1: &Abc<f64>, vn1: f64) {
+        let h = t1 - t0;
+        if h <= 0.0 {
+            return;
+        }
+        let fn_ = Foh::new(self.y_n, vn0, vn1, h, self.tau_n);
+        let k_start = (t0 / TICK_S + 1e-6).floor() as u64 + 1;
+        let k_end = (t1 / TICK_S + 1e-6).floor() as u64;
+        for x in Phase::ALL {
+            let fx = Foh::new(self.y.get(x), v0.get(x), v1.get(x), h, self.tau_p);
+            if k_start <= k_end && self.may_toggle(x, &fx, &fn_, 0.0, h, -self.noise_a, self.noise_a, t0) {
+                self.scan(x, &fx, &fn_, t0, k_start, k_end);
+            }
+            *self.y.get_mut(x) = fx.at(h);
+            self.last.0[x.index()] = fx;
+        }
+        self.y_n = fn_.at(h);
+        self.last.1 = fn_;
+        self.last.2 = t0;
+    }
+
+    /// Cuts the last update short at `t` (a tick instant inside it): toggles after `t` are
+    /// forgotten and the filters take their values at `t`.
+    pub fn truncate_at(&mut self, t: Ticks) {
+        let tau = t.seconds() - self.last.2;
+        for x in Phase::ALL {
+            *self.y.get_mut(x) = self.last.0[x.index()].at(tau);
+            let h = &mut self.hist[x.index()];
+            self.toggles -= h.truncate_after(t.0);
+            *self.out.get_mut(x) = if h.len > 0 { h.newest(0).1 } else { h.base };
+        }
+        self.y_n = self.last.1.at(tau);
+    }
+
+    fn scan(&mut self, x: Phase, fx: &Foh, fn_: &Foh, t0: f64, k_start: u64, k_end: u64) {
+        let ch = x.index();
+        let mut k = k_start;
+        while k <= k_end {
+            let m = k / self.noise_n;
+            let seg_end = ((m + 1) * self.noise_n - 1).min(k_end);
+            let n = noise::uniform(self.seed, ch as u64, m, self.noise_a);
+            let (ta, tb) = (k as f64 * TICK_S - t0, seg_end as f64 * TICK_S - t0);
+            if self.may_toggle(x, fx, fn_, ta, tb, n, n, t0) {
+                for kk in k..=seg_end {
+                    let tau = kk as f64 * TICK_S - t0;
+                    let (_, ring) = self.ring_at_phasor(t0 + tau);
+                    let s = fx.at(tau) - fn_.at(tau) - self.offset.get(x) + ring + n;
+                    let out = self.out.get(x);
+                    if (!out && s > self.half_h) || (out && s < -self.half_h) {
+                        *self.out.get_mut(x) = !out;
+                        self.hist[ch].push(kk, !out);
+                        self.toggles += 1;
+                    }
+                }
+            }
+            k = seg_end + 1;
+        }
+    }
+
+    /// Whether the output may toggle somewhere in τ ∈ [ta, tb], given noise in [n_lo, n_hi].
+    #[allow(clippy::too_many_arguments)]
+    fn may_toggle(&self, x: Phase, fx: &Foh, fn_: &Foh, ta: f64, tb: f64, n_lo: f64, n_hi: f64, t0: f64) -> bool {
+        // d(τ) = α + β·τ + A·e^{−τ/τp} − B·e^{−τ/τn}
+        let alpha = fx.a - fn_.a - fx.b * fx.tau + fn_.b * fn_.tau;
+        let beta = fx.b - fn_.b;
+        let (l1, l2) = (alpha + beta * ta, alpha + beta * tb);
+        let (a, b) = (fx.c, fn_.c);
+        let g = |t: f64| a * (-t / self.tau_p).exp() - b * (-t / self.tau_n).exp();
+        let (mut gmin, mut gmax) = (g(ta).min(g(tb)), g(ta).max(g(tb)));
+        let k = 1.0 / self.tau_p - 1.0 / self.tau_n;
+        if a * b > 0.0 && k != 0.0 {
+            let ts = ((a * self.tau_n) / (b * self.tau_p)).ln() / k;
+            if ts > ta && ts < tb {
+                gmin = gmin.min(g(ts));
+                gmax = gmax.max(g(ts));
+            }
+        }
+        let env = self.ring_envelope(t0 + ta);
+        let off = self.offset.get(x);
+        if self.out.get(x) {
+            l1.min(l2) + gmin - off - env + n_lo < -self.half_h
+        } else {
+            l1.max(l2) + gmax - off + env + n_hi > self.half_h
+        }
+    }
+
+    /// Outputs as seen after the propagation delay at instant `at`.
+    pub fn outputs_at(&self, at: Ticks) -> Abc<bool> {
+        let t = at.0.saturating_sub(self.delay);
+        Abc::from_fn(|x| self.hist[x.index()].state_at(t))
+    }
+
+    /// Earliest instant after `after` at which a watched output changes (delay included).
+    pub fn next_visible_change(&self, after: Ticks, watch: Abc<bool>) -> Option<Ticks> {
+        let t = after.0.saturating_sub(self.delay);
+        Phase::ALL
+            .into_iter()
+            .filter(|&x| watch.get(x))
+            .filter_map(|x| self.hist[x.index()].first_after(t))
+            .min()
+            .map(|k| Ticks(k + self.delay))
+    }
+
+    /// Total number of toggles so far (all channels).
+    pub fn toggle_count(&self) -> u64 {
+        self.toggles
+    }
+
+    /// Filter outputs (phase paths, neutral path) [V], for traces.
+    pub fn filtered(&self) -> (Abc<f64>, f64) {
+        (self.y, self.y_n)
+    }
+}

@@ -1,0 +1,10 @@
+//! What the controller can sense: shunt current through an ADC, and phase-vs-neutral
+//! comparators with a realistic front end.
+
+pub mod comparator;
+pub mod current;
+pub mod foh;
+pub mod noise;
+
+pub use comparator::ComparatorBank;
+pub use current::CurrentSense;
