@@ -21,6 +21,34 @@ pub type Pattern = Abc<LegState>;
 /// The all-floating pattern (chip flag 0110).
 pub const ALL_FLOAT: Pattern = Abc::splat(LegState::Float);
 
+/// The 120° six-step table of SPEC §3, states 1..6 (index 0..5): state k spans
+/// θe = −30° + 60°·(k−1) .. +60°, the floating phase's back-EMF crossing mid-state.
+pub const SIX_STEP_120: [Pattern; 6] = {
+    use LegState::{Float as F, High as V, Low as G};
+    [
+        Abc { u: F, v: G, w: V },
+        Abc { u: V, v: G, w: F },
+        Abc { u: V, v: F, w: G },
+        Abc { u: F, v: V, w: G },
+        Abc { u: G, v: V, w: F },
+        Abc { u: G, v: F, w: V },
+    ]
+};
+
+/// The floating phase of a pattern, if exactly one leg floats.
+pub fn floating_phase(p: &Pattern) -> Option<Phase> {
+    let mut found = None;
+    for x in Phase::ALL {
+        if p.get(x) == LegState::Float {
+            if found.is_some() {
+                return None;
+            }
+            found = Some(x);
+        }
+    }
+    found
+}
+
 /// Logical gate commands of the six switches: `true` = switch on.
 ///
 /// `high.u` is Tr1, `low.u` Tr2, `high.v` Tr3, `low.v` Tr4, `high.w` Tr5, `low.w` Tr6.

@@ -1,7 +1,7 @@
 //! The controller side of the engine: what a strategy reads and what it returns.
 
 use crate::abc::Abc;
-use crate::bridge::{ALL_FLOAT, Pattern};
+use crate::bridge::{ALL_FLOAT, Pattern, SIX_STEP_120, floating_phase};
 use crate::pwm::DutyCounts;
 use crate::time::Ticks;
 
@@ -79,5 +79,58 @@ impl Controller for Hold {
     }
     fn tick(&mut self, _now: Ticks, _sensed: &Sensed) -> Command {
         Command { wake_at: Ticks::NEVER, ..self.0 }
+    }
+}
+
+/// Open-loop six-step stepping: the 120° table advanced every `step` ticks at a fixed duty,
+/// the way a drive is started before back-EMF can be sensed. It watches the floating
+/// phase's comparator and counts the edges it sees (an observer of the crossings).
+#[derive(Copy, Clone, Debug)]
+pub struct OpenLoopSixStep {
+    /// Ticks per 60° state.
+    pub step: Ticks,
+    /// Voltage command [carrier counts].
+    pub duty: crate::pwm::DutyCounts,
+    /// Table index of the first state (0 = state 1).
+    pub first_state: usize,
+    /// Controller clock (default 0.64 µs).
+    pub clock: Ticks,
+    last: Option<(usize, bool)>,
+    /// Floating-phase comparator edges seen so far.
+    pub zc_edges: u64,
+}
+
+impl OpenLoopSixStep {
+    /// Steps every `step` ticks at `duty`, starting in table index `first_state`.
+    pub fn new(step: Ticks, duty: crate::pwm::DutyCounts, first_state: usize) -> Self {
+        OpenLoopSixStep { step, duty, first_state, clock: crate::time::clocks::COMMUTATION, last: None, zc_edges: 0 }
+    }
+
+    /// Table index (0..5) in force at `now`.
+    pub fn state_at(&self, now: Ticks) -> usize {
+        let n = if self.step.0 == 0 { 0 } else { now.0 / self.step.0 };
+        ((self.first_state as u64 + n) % 6) as usize
+    }
+}
+
+impl Controller for OpenLoopSixStep {
+    fn clock(&self) -> Ticks {
+        self.clock
+    }
+
+    fn tick(&mut self, now: Ticks, sensed: &Sensed) -> Command {
+        let k = self.state_at(now);
+        let pattern = SIX_STEP_120[k];
+        let floating = floating_phase(&pattern);
+        let level = floating.map(|x| sensed.zc.get(x)).unwrap_or(false);
+        if let Some((k0, l0)) = self.last {
+            if k0 == k && l0 != level {
+                self.zc_edges += 1;
+            }
+        }
+        self.last = Some((k, level));
+        let watch = Abc::from_fn(|x| Some(x) == floating);
+        let next = if self.step.0 == 0 { Ticks::NEVER } else { Ticks((now.0 / self.step.0 + 1) * self.step.0) };
+        Command { pattern, duty: self.duty, watch, wake_at: next }
     }
 }

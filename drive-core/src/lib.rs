@@ -13,8 +13,8 @@ pub mod pwm;
 pub mod time;
 
 pub use abc::{Abc, Phase};
-pub use bridge::{Gates, LegState, Pattern, ShootThrough};
-pub use control::{Command, Controller, Hold, Sensed};
+pub use bridge::{Gates, LegState, Pattern, SIX_STEP_120, ShootThrough, floating_phase};
+pub use control::{Command, Controller, Hold, OpenLoopSixStep, Sensed};
 pub use engine::{Engine, EngineError, StopReason};
 pub use error::ParamError;
 pub use plant::{Plant, PlantStop};

@@ -6,7 +6,7 @@
 //! constant within a step. Mechanics: J·dωm/dt = Te − Bm·ωm − TL, dθe/dt = (P/2)·ωm,
 //! Te = (P/2)·λr·Σ i_x·f(θx) so that Te·ωm = Σ e_x·i_x exactly.
 //!
-//! Events located in time (regula falsi on the RK4 solution, to 1e-13 s): a freewheeling
+//! Events located in time (Illinois regula falsi on the RK4 solution, to 0.1 ns): a freewheeling
 //! diode's current reaching zero (the current is then set to exactly zero and the phase
 //! floats), and an open terminal reaching a diode clamp (the diode starts conducting).
 
@@ -271,7 +271,7 @@ impl BldcPlant {
         }
         let mut side = 0i8;
         for _ in 0..60 {
-            if b - a < 1e-13 {
+            if b - a < 1e-10 {
                 break;
             }
             let c = (b - fb * (b - a) / (fb - fa)).clamp(a + 0.01 * (b - a), b - 0.01 * (b - a));
@@ -279,6 +279,9 @@ impl BldcPlant {
             self.stats.retries += 1;
             if fc <= 0.0 {
                 (b, fb) = (c, fc);
+                if fc > -1e-12 {
+                    break; // close enough: the state is snapped exactly at the event anyway
+                }
                 if side == -1 {
                     fa *= 0.5;
                 }

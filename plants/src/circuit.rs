@@ -136,68 +136,75 @@ impl Circuit {
 
     /// Solves the network for given conduction states, currents and back-EMFs.
     pub fn solve(&self, modes: &Abc<Conduction>, i: &Abc<f64>, e: &Abc<f64>) -> Solution {
+        let m = modes.to_array();
+        let i = i.to_array();
+        let e = e.to_array();
         let mut i_sh = 0.0;
         let mut n_c = 0u32;
         let mut n_switch = 0u32;
-        for p in Phase::ALL {
-            let m = modes.get(p);
-            if m.is_low() {
-                i_sh -= i.get(p);
+        let mut pinned = 0usize;
+        for k in 0..3 {
+            if m[k].is_low() {
+                i_sh -= i[k];
             }
-            if m.conducts() {
+            if m[k].conducts() {
                 n_c += 1;
-                if !m.is_diode() {
+                if !m[k].is_diode() {
                     n_switch += 1;
+                    pinned = k;
                 }
             }
         }
         let v_lr = self.r_sh * i_sh;
-        let mut v = Abc::splat(0.0);
+        let mut v = [0.0; 3];
         let mut sum = 0.0;
         let mut pw = Powers { shunt: self.r_sh * i_sh * i_sh, ..Powers::default() };
-        for p in Phase::ALL {
-            let m = modes.get(p);
-            if !m.conducts() {
+        for k in 0..3 {
+            if !m[k].conducts() {
                 continue;
             }
-            let ix = i.get(p);
-            let (vs, rs) = self.source(m);
-            let vx = vs + if m.is_low() { v_lr } else { 0.0 } - rs * ix;
-            *v.get_mut(p) = vx;
-            sum += vx - self.r * ix - e.get(p);
-            if m.is_high() {
+            let ix = i[k];
+            let (vs, rs) = self.source(m[k]);
+            let vx = vs + if m[k].is_low() { v_lr } else { 0.0 } - rs * ix;
+            v[k] = vx;
+            sum += vx - self.r * ix - e[k];
+            if m[k].is_high() {
                 pw.supply += self.vdd * ix;
             }
-            if m.is_diode() {
+            if m[k].is_diode() {
                 pw.diode += self.vf * ix.abs() + self.r_d * ix * ix;
             } else {
                 pw.switch += self.r_on * ix * ix;
             }
             pw.copper += self.r * ix * ix;
-            pw.airgap += e.get(p) * ix;
+            pw.airgap += e[k] * ix;
         }
-        let mut di = Abc::splat(0.0);
+        let mut di = [0.0; 3];
         let v_n = if n_c >= 2 {
             let v_n = sum / n_c as f64;
-            for p in Phase::ALL {
-                if modes.get(p).conducts() {
-                    *di.get_mut(p) = (v.get(p) - v_n - self.r * i.get(p) - e.get(p)) * self.inv_l;
+            for k in 0..3 {
+                if m[k].conducts() {
+                    di[k] = (v[k] - v_n - self.r * i[k] - e[k]) * self.inv_l;
                 }
             }
             v_n
         } else if n_switch == 1 {
-            let p = Phase::ALL.into_iter().find(|&p| modes.get(p).conducts()).unwrap_or(Phase::U);
-            v.get(p) - e.get(p)
+            v[pinned] - e[pinned]
         } else {
-            self.floating_neutral(e, v_lr)
+            self.floating_neutral(&Abc { u: e[0], v: e[1], w: e[2] }, v_lr)
         };
-        for p in Phase::ALL {
-            let m = modes.get(p);
-            if !m.conducts() || (n_c < 2 && m.is_diode()) {
-                *v.get_mut(p) = v_n + e.get(p);
+        for k in 0..3 {
+            if !m[k].conducts() || (n_c < 2 && m[k].is_diode()) {
+                v[k] = v_n + e[k];
             }
         }
-        Solution { di, v_term: v, v_n, i_shunt: i_sh, powers: pw }
+        Solution {
+            di: Abc { u: di[0], v: di[1], w: di[2] },
+            v_term: Abc { u: v[0], v: v[1], w: v[2] },
+            v_n,
+            i_shunt: i_sh,
+            powers: pw,
+        }
     }
 
     /// Neutral voltage with no conducting path: −Σe/3, clamped so that every terminal stays

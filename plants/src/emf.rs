@@ -68,7 +68,7 @@ mod tests {
         assert!((shape(&t, 15f64.to_radians()).u - 0.5).abs() < 1e-12);
         assert!((shape(&t, 90f64.to_radians()).u - 1.0).abs() < 1e-12);
         assert!((shape(&t, 200f64.to_radians()).u + 0.666_666_666_666_666_6).abs() < 1e-9);
-        // v lags u by 120°
-        assert!((shape(&t, 150f64.to_radians()).v - 0.5).abs() < 1e-12);
+        // v lags u by 120°: θv = 15° is half-way up the ramp
+        assert!((shape(&t, 135f64.to_radians()).v - 0.5).abs() < 1e-12);
     }
 }

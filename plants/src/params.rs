@@ -337,14 +337,16 @@ impl SensingParams {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct SolverParams {
-    /// Longest RK4 step between events [s]. Default 20 µs (≈ τe/23 with τe = L/R = 0.45 ms,
-    /// local error ≈ (h/τe)^5/120 ≈ 1e-9). Rule: 0.1 µs ..= 100 µs.
+    /// Longest RK4 step between events [s]. Default 40 µs, half the PWM period: with
+    /// τe = L/R = 0.45 ms the local error is ≈ (h/τe)^5/120 ≈ 5e-8. Comparator inputs are
+    /// interpolated linearly over a step; near a crossing the floating phase's back-EMF is
+    /// itself nearly linear, so this costs no crossing accuracy. Rule: 0.1 µs ..= 100 µs.
     pub max_step_s: f64,
 }
 
 impl Default for SolverParams {
     fn default() -> Self {
-        SolverParams { max_step_s: 20e-6 }
+        SolverParams { max_step_s: 40e-6 }
     }
 }
 

@@ -102,6 +102,10 @@ pub struct ComparatorBank {
     ring_gain: f64,
     ring_w: f64,
     ring_decay: f64,
+    /// Per-tick decay factors e^{−T/τp}, e^{−T/τn} and ring rotation e^{(−1/τr + jω)T}.
+    q_p: f64,
+    q_n: f64,
+    q_ring: (f64, f64),
     y: Abc<f64>,
     y_n: f64,
     out: Abc<bool>,
@@ -109,7 +113,12 @@ pub struct ComparatorBank {
     /// Ringing phasor (re, im) referred to `ring_t`: ring(t) = Im(Z·e^{(−1/τr + jω)(t − ring_t)}).
     ring: (f64, f64),
     ring_t: f64,
+    ring_mag: f64,
     toggles: u64,
+    /// Ticks evaluated one by one (work counter).
+    pub ticks_scanned: u64,
+    /// Scans started (work counter).
+    pub scans: u64,
     /// Filter segments of the last update (phase paths, neutral) and its start time.
     last: ([Foh; 3], Foh, f64),
 }
@@ -131,13 +140,23 @@ impl ComparatorBank {
             ring_gain: p.ring_gain,
             ring_w: std::f64::consts::TAU * p.ring_frequency_hz,
             ring_decay: p.ring_decay_s,
+            q_p: (-TICK_S / p.phase_filter_tau_s).exp(),
+            q_n: (-TICK_S / p.neutral_filter_tau_s).exp(),
+            q_ring: {
+                let d = (-TICK_S / p.ring_decay_s).exp();
+                let (sn, cs) = (std::f64::consts::TAU * p.ring_frequency_hz * TICK_S).sin_cos();
+                (d * cs, d * sn)
+            },
             y: *v_term,
             y_n: v_n,
             out,
             hist: [History::new(out.u), History::new(out.v), History::new(out.w)],
             ring: (0.0, 0.0),
             ring_t: 0.0,
+            ring_mag: 0.0,
             toggles: 0,
+            ticks_scanned: 0,
+            scans: 0,
             last: ([Foh::new(0.0, 0.0, 0.0, 0.0, 1.0); 3], Foh::new(0.0, 0.0, 0.0, 0.0, 1.0), 0.0),
         }
     }
@@ -149,6 +168,7 @@ impl ComparatorBank {
         }
         let (re, im) = self.ring_at_phasor(t);
         self.ring = (re + self.ring_gain * dv, im);
+        self.ring_mag = self.ring.0.hypot(self.ring.1);
         self.ring_t = t;
     }
 
@@ -166,10 +186,10 @@ impl ComparatorBank {
     }
 
     fn ring_envelope(&self, t: f64) -> f64 {
-        if self.ring == (0.0, 0.0) {
+        if self.ring_mag == 0.0 {
             return 0.0;
         }
-        self.ring.0.hypot(self.ring.1) * (-(t - self.ring_t) / self.ring_decay).exp()
+        self.ring_mag * (-(t - self.ring_t) / self.ring_decay).exp()
     }
 
     /// Advances the filters over [t0, t1] with terminal/neutral voltages varying linearly
@@ -184,7 +204,8 @@ impl ComparatorBank {
         let k_end = (t1 / TICK_S + 1e-6).floor() as u64;
         for x in Phase::ALL {
             let fx = Foh::new(self.y.get(x), v0.get(x), v1.get(x), h, self.tau_p);
-            if k_start <= k_end && self.may_toggle(x, &fx, &fn_, 0.0, h, -self.noise_a, self.noise_a, t0) {
+            let w = [1.0, 1.0, (-h / self.tau_p).exp(), (-h / self.tau_n).exp()];
+            if k_start <= k_end && self.may_toggle(x, &fx, &fn_, 0.0, h, w, -self.noise_a, self.noise_a, t0) {
                 self.scan(x, &fx, &fn_, t0, k_start, k_end);
             }
             *self.y.get_mut(x) = fx.at(h);
@@ -210,53 +231,102 @@ impl ComparatorBank {
 
     fn scan(&mut self, x: Phase, fx: &Foh, fn_: &Foh, t0: f64, k_start: u64, k_end: u64) {
         let ch = x.index();
+        self.scans += 1;
         let mut k = k_start;
+        let ta0 = k as f64 * TICK_S - t0;
+        let t_end = k_end as f64 * TICK_S - t0;
+        let w_end = [(-t_end / fx.tau).exp(), (-t_end / fn_.tau).exp()];
+        let seg_q = (self.q_p.powi(self.noise_n as i32), self.q_n.powi(self.noise_n as i32));
+        // Decay factors at the current tick, carried from segment to segment.
+        let (mut dp, mut dn) = ((-ta0 / fx.tau).exp(), (-ta0 / fn_.tau).exp());
+        let mut check_rest = true;
         while k <= k_end {
+            let (ta, tb_rest) = (k as f64 * TICK_S - t0, t_end);
+            if check_rest {
+                // Nothing can happen in the rest of the step: stop scanning.
+                let w = [dp, dn, w_end[0], w_end[1]];
+                if !self.may_toggle(x, fx, fn_, ta, tb_rest, w, -self.noise_a, self.noise_a, t0) {
+                    return;
+                }
+                check_rest = false;
+            }
             let m = k / self.noise_n;
             let seg_end = ((m + 1) * self.noise_n - 1).min(k_end);
             let n = noise::uniform(self.seed, ch as u64, m, self.noise_a);
-            let (ta, tb) = (k as f64 * TICK_S - t0, seg_end as f64 * TICK_S - t0);
-            if self.may_toggle(x, fx, fn_, ta, tb, n, n, t0) {
+            let tb = seg_end as f64 * TICK_S - t0;
+            let span = seg_end - k;
+            let (dpb, dnb) = if span + 1 == self.noise_n {
+                (dp * seg_q.0 / self.q_p, dn * seg_q.1 / self.q_n)
+            } else {
+                (dp * self.q_p.powi(span as i32), dn * self.q_n.powi(span as i32))
+            };
+            let w = [dp, dn, dpb, dnb];
+            if self.may_toggle(x, fx, fn_, ta, tb, w, n, n, t0) {
+                // Walk the ticks with per-tick factors instead of exp/sin at every tick.
+                self.ticks_scanned += span + 1;
+                let mut ep = fx.c * dp;
+                let mut en = fn_.c * dn;
+                let mut z = self.ring_at_phasor(t0 + ta);
+                let lin0 = fx.a - fn_.a - fx.b * fx.tau + fn_.b * fn_.tau - self.offset.get(x) + n;
+                let slope = fx.b - fn_.b;
                 for kk in k..=seg_end {
                     let tau = kk as f64 * TICK_S - t0;
-                    let (_, ring) = self.ring_at_phasor(t0 + tau);
-                    let s = fx.at(tau) - fn_.at(tau) - self.offset.get(x) + ring + n;
+                    let s = lin0 + slope * tau + ep - en + z.1;
                     let out = self.out.get(x);
                     if (!out && s > self.half_h) || (out && s < -self.half_h) {
                         *self.out.get_mut(x) = !out;
                         self.hist[ch].push(kk, !out);
                         self.toggles += 1;
+                        check_rest = true;
                     }
+                    ep *= self.q_p;
+                    en *= self.q_n;
+                    z = (z.0 * self.q_ring.0 - z.1 * self.q_ring.1, z.0 * self.q_ring.1 + z.1 * self.q_ring.0);
                 }
             }
+            dp = dpb * self.q_p;
+            dn = dnb * self.q_n;
             k = seg_end + 1;
         }
     }
 
     /// Whether the output may toggle somewhere in τ ∈ [ta, tb], given noise in [n_lo, n_hi].
+    /// `w` holds the decay factors (e^{−ta/τp}, e^{−ta/τn}, e^{−tb/τp}, e^{−tb/τn}).
     #[allow(clippy::too_many_arguments)]
-    fn may_toggle(&self, x: Phase, fx: &Foh, fn_: &Foh, ta: f64, tb: f64, n_lo: f64, n_hi: f64, t0: f64) -> bool {
-        // d(τ) = α + β·τ + A·e^{−τ/τp} − B·e^{−τ/τn}
+    fn may_toggle(&self, x: Phase, fx: &Foh, fn_: &Foh, ta: f64, tb: f64, w: [f64; 4], n_lo: f64, n_hi: f64, t0: f64) -> bool {
+        // s(τ) = α + β·τ + A·e^{−τ/τp} − B·e^{−τ/τn} + ring + noise − offset
         let alpha = fx.a - fn_.a - fx.b * fx.tau + fn_.b * fn_.tau;
         let beta = fx.b - fn_.b;
         let (l1, l2) = (alpha + beta * ta, alpha + beta * tb);
-        let (a, b) = (fx.c, fn_.c);
-        let g = |t: f64| a * (-t / self.tau_p).exp() - b * (-t / self.tau_n).exp();
-        let (mut gmin, mut gmax) = (g(ta).min(g(tb)), g(ta).max(g(tb)));
-        let k = 1.0 / self.tau_p - 1.0 / self.tau_n;
-        if a * b > 0.0 && k != 0.0 {
-            let ts = ((a * self.tau_n) / (b * self.tau_p)).ln() / k;
-            if ts > ta && ts < tb {
-                gmin = gmin.min(g(ts));
-                gmax = gmax.max(g(ts));
-            }
-        }
+        let (a, b) = (fx.c * w[0], fn_.c * w[1]); // transients at ta; they only decay after
         let env = self.ring_envelope(t0 + ta);
         let off = self.offset.get(x);
-        if self.out.get(x) {
-            l1.min(l2) + gmin - off - env + n_lo < -self.half_h
+        let rising = !self.out.get(x);
+        let crude = if rising {
+            l1.max(l2) + a.max(0.0) - b.min(0.0) - off + env + n_hi > self.half_h
         } else {
+            l1.min(l2) + a.min(0.0) - b.max(0.0) - off - env + n_lo < -self.half_h
+        };
+        if !crude {
+            return false;
+        }
+        // Exact range of A·e^{−τ/τp} − B·e^{−τ/τn}: the ends and the one stationary point.
+        let (ga, gb) = (a - b, fx.c * w[2] - fn_.c * w[3]);
+        let (mut gmin, mut gmax) = (ga.min(gb), ga.max(gb));
+        let k = 1.0 / self.tau_p - 1.0 / self.tau_n;
+        let (ca, cb) = (fx.c, fn_.c);
+        if ca * cb > 0.0 && k != 0.0 {
+            let ts = ((ca * self.tau_n) / (cb * self.tau_p)).ln() / k;
+            if ts > ta && ts < tb {
+                let g = ca * (-ts / self.tau_p).exp() - cb * (-ts / self.tau_n).exp();
+                gmin = gmin.min(g);
+                gmax = gmax.max(g);
+            }
+        }
+        if rising {
             l1.max(l2) + gmax - off + env + n_hi > self.half_h
+        } else {
+            l1.min(l2) + gmin - off - env + n_lo < -self.half_h
         }
     }
 
