@@ -1,0 +1,181 @@
+//! The plant against independently derived physics: RL step, energy balance, torque/EMF
+//! consistency, floating terminals, diode freewheeling.
+
+mod common;
+
+use bldc_drive::drive_core::{Abc, Command, Hold, OpenLoopSixStep, Plant, StopReason, Ticks};
+use bldc_drive::plants::{Conduction, PlantParams};
+use common::*;
+
+/// Locked rotor, u→v driven by a constant voltage: i(t) = V/R_loop·(1 − e^{−t·R_loop/L_loop}),
+/// with L_loop = 2(Lp + M) and R_loop = 2R + 2R_on + R_shunt.
+fn rl_step(params: PlantParams) {
+    let m = &params.motor;
+    let ps = &params.power_stage;
+    let r_loop = 2.0 * m.resistance_ohm + 2.0 * ps.switch_on_resistance_ohm + ps.shunt_ohm;
+    let l_loop = 2.0 * (m.self_inductance_h + m.mutual_inductance_h);
+    let (i_inf, tau) = (ps.supply_v / r_loop, l_loop / r_loop);
+    let mut eng = engine(params.clone(), Hold(hold("VGF", 2000, Abc::splat(false))));
+    eng.plant.set_rotor(0.3, 0.0, true);
+    eng.set_sample_period(Ticks(500)); // 10 µs
+    let mut worst: f64 = 0.0;
+    let mut samples = 0;
+    eng.run_until(Ticks::from_seconds(5.0 * tau).unwrap(), |e, r| {
+        if r == StopReason::Sample {
+            let o = e.plant.observe();
+            let want = i_inf * (1.0 - (-o.t_s / tau).exp());
+            worst = worst.max((o.i.u - want).abs() / want);
+            assert!((o.i.u + o.i.v).abs() < 1e-12 && o.i.w == 0.0, "u→v only: {:?}", o.i);
+            samples += 1;
+        }
+    })
+    .unwrap();
+    assert!(samples > 100);
+    assert!(worst < 0.01, "worst relative error {worst}");
+    // The fit is far better than 1 %: the integrator is not the limit.
+    assert!(worst < 1e-6, "worst relative error {worst}");
+}
+
+#[test]
+fn locked_rotor_current_follows_the_analytic_rl_step() {
+    rl_step(PlantParams::default());
+}
+
+#[test]
+fn locked_rotor_time_constant_is_lp_plus_m_over_r_without_bridge_losses() {
+    let mut p = PlantParams::default();
+    p.power_stage.switch_on_resistance_ohm = 0.0;
+    p.power_stage.shunt_ohm = 0.0;
+    rl_step(p);
+}
+
+#[test]
+fn energy_balance_and_torque_consistency_with_pwm() {
+    let params = PlantParams::default();
+    // Open-loop stepping at 600 rpm with 40 % duty and a load: PWM, freewheeling diodes,
+    // commutations, acceleration all present.
+    let step = Ticks::from_seconds(1.0 / (600.0 / 60.0 * 6.0 * 6.0)).unwrap();
+    let mut eng = engine(params.clone(), OpenLoopSixStep::new(step, 800, 1));
+    eng.plant.set_load_torque(2e-4);
+    eng.set_sample_period(Ticks(250));
+    let m = params.motor.clone();
+    let pp = m.poles as f64 / 2.0;
+    let mut checked = 0;
+    eng.run_until(Ticks::from_seconds(0.15).unwrap(), |e, _| {
+        let o = e.plant.observe();
+        let emf = spec_emf(&params, o.theta_e, o.omega_m);
+        let third = 2.0 * std::f64::consts::PI / 3.0;
+        let te = pp
+            * m.flux_linkage_wb
+            * (o.i.u * o.theta_e.sin() + o.i.v * (o.theta_e - third).sin() + o.i.w * (o.theta_e + third).sin());
+        let p_ei = emf.u * o.i.u + emf.v * o.i.v + emf.w * o.i.w;
+        let scale = 1e-3 * (1.0 + o.omega_m.abs());
+        assert!((o.torque_nm - te).abs() < 1e-15, "Te {} vs SPEC {}", o.torque_nm, te);
+        assert!((te * o.omega_m - p_ei).abs() < 1e-12 * scale, "Te·ωm {} vs Σe·i {}", te * o.omega_m, p_ei);
+        for (a, b) in [(o.emf.u, emf.u), (o.emf.v, emf.v), (o.emf.w, emf.w)] {
+            assert!((a - b).abs() < 1e-12);
+        }
+        checked += 1;
+    })
+    .unwrap();
+    assert!(checked > 1000);
+    let st = eng.plant.stats();
+    // One freewheel ends at each of the 54 commutations (600 rpm for 0.15 s).
+    assert!(st.diode_events >= 40, "freewheeling must end in located events: {st:?}");
+    let e = eng.plant.energy();
+    let out = e.copper + e.switch + e.diode + e.shunt + e.friction + e.load + e.magnetic + e.kinetic;
+    assert!(e.supply > 1e-3 && e.diode > 0.0 && e.kinetic > 0.0, "{e:?}");
+    let rel = (e.supply - out).abs() / e.supply;
+    assert!(rel < 0.01, "energy balance off by {rel}: {e:?}");
+    assert!(rel < 1e-6, "energy balance off by {rel}: {e:?}");
+    let mech = (e.airgap - (e.friction + e.load + e.kinetic)).abs() / e.airgap.abs();
+    assert!(mech < 1e-6, "mechanical balance off by {mech}");
+}
+
+#[test]
+fn all_switches_off_terminal_minus_neutral_is_the_back_emf() {
+    let params = PlantParams::default();
+    let mut eng = engine(params.clone(), Hold(Command::OFF));
+    eng.plant.set_rotor(1.0, 3000.0, true);
+    eng.set_sample_period(Ticks(100));
+    let mut n = 0;
+    eng.run_until(Ticks::from_seconds(2e-3).unwrap(), |e, _| {
+        let o = e.plant.observe();
+        let emf = spec_emf(&params, o.theta_e, o.omega_m);
+        assert_eq!(o.i, Abc::splat(0.0));
+        for (vt, ex) in [(o.v_term.u, emf.u), (o.v_term.v, emf.v), (o.v_term.w, emf.w)] {
+            assert!((vt - o.v_n - ex).abs() < 1e-12, "{} vs {}", vt - o.v_n, ex);
+        }
+        n += 1;
+    })
+    .unwrap();
+    assert!(n > 500);
+    // The rotor turned: 3000 rpm over 2 ms is 36° mechanical, 216° electrical.
+    let turned = (eng.plant.observe().theta_e - 1.0).rem_euclid(std::f64::consts::TAU);
+    assert!((turned - 216f64.to_radians()).abs() < 1e-9, "{turned}");
+}
+
+/// Drives `before` until the current settles, then opens phase u; checks the freewheel.
+fn open_phase(before: &str, after: &str, diode: Conduction) {
+    let params = PlantParams::default();
+    let ps = params.power_stage.clone();
+    let t_open = Ticks::from_seconds(3e-3).unwrap();
+    let ctl = Switch {
+        at: t_open,
+        before: hold(before, 2000, Abc::splat(false)),
+        after: hold(after, 2000, Abc::splat(false)),
+    };
+    let mut eng = engine(params.clone(), ctl);
+    eng.plant.set_rotor(0.5, 300.0, true);
+    eng.set_sample_period(Ticks(50)); // 1 µs
+    let mut i_open = None;
+    let mut prev_abs = f64::INFINITY;
+    let mut zero_at = None;
+    let mut reconducted = false;
+    eng.run_until(Ticks::from_seconds(6e-3).unwrap(), |e, r| {
+        let o = e.plant.observe();
+        if e.now() < t_open || e.plant.time_s() < t_open.seconds() {
+            return;
+        }
+        i_open.get_or_insert(o.i.u);
+        match zero_at {
+            None if o.conduction.u == diode => {
+                // Clamped to the rail through the diode, current decaying.
+                let want = match diode {
+                    Conduction::DiodeLow => o.i_shunt * ps.shunt_ohm - ps.diode_forward_v - ps.diode_resistance_ohm * o.i.u,
+                    _ => ps.supply_v + ps.diode_forward_v - ps.diode_resistance_ohm * o.i.u,
+                };
+                assert!((o.v_term.u - want).abs() < 1e-9, "clamp {} vs {}", o.v_term.u, want);
+                assert!(o.i.u.abs() <= prev_abs + 1e-15, "freewheel current must decay");
+                prev_abs = o.i.u.abs();
+            }
+            None => {
+                assert_eq!(r, StopReason::Diode, "the diode turns off at a located event");
+                assert_eq!(o.i.u, 0.0, "exactly zero");
+                zero_at = Some(o.t_s);
+            }
+            Some(_) => {
+                reconducted |= o.i.u != 0.0 || o.conduction.u != Conduction::Open;
+                let emf = spec_emf(&params, o.theta_e, o.omega_m);
+                assert!((o.v_term.u - o.v_n - emf.u).abs() < 1e-9, "floats at v_n + e_u");
+            }
+        }
+    })
+    .unwrap();
+    let i0 = i_open.unwrap();
+    assert!(i0.abs() > 0.5, "a real current was flowing: {i0}");
+    let t_zero = zero_at.expect("the current reached zero") - t_open.seconds();
+    // The freewheel lasts a fraction of the electrical time constant (~0.4 ms), not forever.
+    assert!(t_zero > 1e-6 && t_zero < 1e-3, "freewheel lasted {t_zero} s");
+    assert!(!reconducted, "no chatter: the phase stays open after its current reached zero");
+}
+
+#[test]
+fn opened_phase_freewheels_through_low_diode_then_floats() {
+    open_phase("VGF", "FGV", Conduction::DiodeLow);
+}
+
+#[test]
+fn opened_phase_freewheels_through_high_diode_then_floats() {
+    open_phase("GVF", "FVG", Conduction::DiodeHigh);
+}
