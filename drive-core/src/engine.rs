@@ -189,3 +189,107 @@ impl<P: Plant, C: Controller, S: PwmScheme> Engine<P, C, S> {
         Ok(())
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::abc::Abc;
+    use crate::bridge::LegState;
+    use crate::control::Sensed;
+    use crate::pwm::HighSideChop;
+
+    /// Records what the engine does; reports one comparator change at `change_at`.
+    struct MockPlant {
+        t: Ticks,
+        change_at: Ticks,
+        level: bool,
+        gate_log: Vec<(Ticks, Gates)>,
+    }
+
+    impl Plant for MockPlant {
+        fn time_s(&self) -> f64 {
+            self.t.seconds()
+        }
+        fn set_gates(&mut self, g: &Gates) {
+            self.gate_log.push((self.t, *g));
+        }
+        fn advance(&mut self, until: Ticks, watch: Abc<bool>) -> PlantStop {
+            if watch.w && self.t < self.change_at && until > self.change_at {
+                self.t = self.change_at;
+                self.level = true;
+                return PlantStop::Sensing(self.change_at);
+            }
+            self.t = until;
+            PlantStop::Reached
+        }
+        fn sensed(&self, at: Ticks) -> Sensed {
+            Sensed { zc: Abc { u: false, v: false, w: self.level && at >= self.change_at }, current_code: 0 }
+        }
+    }
+
+    struct Logger {
+        calls: Vec<(Ticks, bool)>,
+        cmd: Command,
+    }
+
+    impl Controller for Logger {
+        fn clock(&self) -> Ticks {
+            Ticks(32)
+        }
+        fn tick(&mut self, now: Ticks, s: &Sensed) -> Command {
+            self.calls.push((now, s.zc.w));
+            self.cmd
+        }
+    }
+
+    fn engine(cmd: Command, change_at: Ticks) -> Engine<MockPlant, Logger, HighSideChop> {
+        let plant = MockPlant { t: Ticks::ZERO, change_at, level: false, gate_log: Vec::new() };
+        Engine::new(plant, Logger { calls: Vec::new(), cmd }, HighSideChop, Carrier { top: 100 }, Ticks::ZERO)
+    }
+
+    #[test]
+    fn controller_runs_at_the_clock_edge_after_a_watched_change_and_when_asked() {
+        let pattern = Abc { u: LegState::High, v: LegState::Low, w: LegState::Float };
+        let cmd = Command { pattern, duty: 100, watch: Abc { u: false, v: false, w: true }, wake_at: Ticks(1000) };
+        let mut e = engine(cmd, Ticks(100));
+        e.run_until(Ticks(1100), |_, _| {}).unwrap();
+        let calls = &e.controller.calls;
+        assert_eq!(calls[0], (Ticks(0), false));
+        // Change at tick 100 → sampled at the next 0.64 µs edge, 128, where it is visible.
+        assert_eq!(calls[1], (Ticks(128), true));
+        // wake_at 1000 → the next clock edge at or after it, 1024.
+        assert!(calls.iter().any(|&(t, _)| t == Ticks(1024)));
+        assert!(calls.iter().all(|&(t, _)| t.0 % 32 == 0), "only clock edges: {calls:?}");
+    }
+
+    #[test]
+    fn pwm_edges_switch_the_gates_on_exact_ticks() {
+        let pattern = Abc { u: LegState::High, v: LegState::Low, w: LegState::Float };
+        let cmd = Command { pattern, duty: 25, watch: Abc::splat(false), wake_at: Ticks::NEVER };
+        let mut e = engine(cmd, Ticks::NEVER);
+        e.run_until(Ticks(400), |_, _| {}).unwrap();
+        // Carrier top 100 (period 200), cv 25: on for p < 25 or p ≥ 175.
+        let changes: Vec<(u64, bool)> = e.plant.gate_log.iter().map(|(t, g)| (t.0, g.high.u)).collect();
+        assert_eq!(changes, vec![(0, true), (25, false), (175, true), (225, false), (375, true)]);
+        assert!(e.plant.gate_log.iter().all(|(_, g)| g.low.v && !g.high.v));
+    }
+
+    #[test]
+    fn shoot_through_is_refused_not_simulated() {
+        struct Bad;
+        impl PwmScheme for Bad {
+            fn gates(&self, _p: &crate::bridge::Pattern, _on: bool) -> Gates {
+                let mut g = Gates::OFF;
+                g.high.u = true;
+                g.low.u = true;
+                g
+            }
+        }
+        let plant = MockPlant { t: Ticks::ZERO, change_at: Ticks::NEVER, level: false, gate_log: Vec::new() };
+        let logger = Logger { calls: Vec::new(), cmd: Command::OFF };
+        let mut e = Engine::new(plant, logger, Bad, Carrier::default(), Ticks::ZERO);
+        let err = e.step(Ticks(10)).unwrap_err();
+        assert!(err.to_string().contains("shoot-through"), "{err}");
+        assert!(e.plant.gate_log.is_empty(), "the bridge never saw it");
+    }
+}
