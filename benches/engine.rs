@@ -16,7 +16,13 @@ const SIM_S: f64 = 0.02;
 fn spinning(rpm: f64, duty: u32) -> Engine<BldcPlant, OpenLoopSixStep, HighSideChop> {
     let step = Ticks::from_seconds(1.0 / (rpm / 60.0 * 36.0)).unwrap();
     let plant = BldcPlant::new(PlantParams::default()).unwrap();
-    let mut e = Engine::new(plant, OpenLoopSixStep::new(step, duty, 1), HighSideChop, Carrier::default(), Ticks(0));
+    let mut e = Engine::new(
+        plant,
+        OpenLoopSixStep::new(step, duty, 1),
+        HighSideChop,
+        Carrier::default(),
+        Ticks(0),
+    );
     e.plant.set_rotor(30f64.to_radians(), rpm, true);
     e
 }
@@ -25,14 +31,23 @@ fn spinning(rpm: f64, duty: u32) -> Engine<BldcPlant, OpenLoopSixStep, HighSideC
 fn free_rotor() -> Engine<BldcPlant, OpenLoopSixStep, HighSideChop> {
     let step = Ticks::from_seconds(1.0 / (600.0 / 60.0 * 36.0)).unwrap();
     let plant = BldcPlant::new(PlantParams::default()).unwrap();
-    Engine::new(plant, OpenLoopSixStep::new(step, 800, 1), HighSideChop, Carrier::default(), Ticks(0))
+    Engine::new(
+        plant,
+        OpenLoopSixStep::new(step, 800, 1),
+        HighSideChop,
+        Carrier::default(),
+        Ticks(0),
+    )
 }
 
 fn bench(c: &mut Criterion) {
     let end = Ticks::from_seconds(SIM_S).unwrap();
     let mut g = c.benchmark_group("engine_20ms");
     g.sample_size(20);
-    for (name, rpm, duty) in [("3000rpm_duty50", 3000.0, 1000), ("8000rpm_duty80", 8000.0, 1600)] {
+    for (name, rpm, duty) in [
+        ("3000rpm_duty50", 3000.0, 1000),
+        ("8000rpm_duty80", 8000.0, 1600),
+    ] {
         g.bench_function(name, |b| {
             b.iter(|| {
                 let mut e = spinning(rpm, duty);

@@ -15,7 +15,18 @@ const RPM: f64 = 2000.0;
 fn run(duty: u32, seed: u64) -> (Vec<(f64, f64, bool)>, Vec<f64>) {
     let mut params = PlantParams::default();
     params.sensing.seed = seed;
-    let mut eng = engine(params, Hold(hold("VGF", duty, Abc { u: false, v: false, w: true })));
+    let mut eng = engine(
+        params,
+        Hold(hold(
+            "VGF",
+            duty,
+            Abc {
+                u: false,
+                v: false,
+                w: true,
+            },
+        )),
+    );
     eng.plant.set_rotor(30f64.to_radians(), RPM, true);
     let we = rpm_to_rad_s(RPM) * 6.0;
     let end = Ticks::from_seconds(60f64.to_radians() / we).unwrap();
@@ -48,13 +59,20 @@ fn pwm_edges_near_the_crossing_glitch_the_raw_signal() {
     assert_eq!(edges.len() % 2, 1);
     for (t, theta, _) in &edges {
         // Near the crossing at 60°: within the ±15° where |e_w| is below the 5 % mismatch spike.
-        assert!((theta - 60.0).abs() < 15.0, "edge at {theta}° is not near the crossing");
+        assert!(
+            (theta - 60.0).abs() < 15.0,
+            "edge at {theta}° is not near the crossing"
+        );
         // Right after a PWM edge (filter spike + ringing), within the comparators' settling.
-        let since = pwm.iter().filter(|&&p| p <= *t).last().map(|p| t - p).unwrap();
+        let since = pwm.iter().rfind(|&&p| p <= *t).map(|p| t - p).unwrap();
         assert!(since < 5e-6, "edge {since} s after the last PWM edge");
     }
     // Glitches are short pulses: each pair of opposite edges closes within 5 µs.
-    let pulses: Vec<f64> = edges.windows(2).map(|w| w[1].0 - w[0].0).filter(|&d| d < 5e-6).collect();
+    let pulses: Vec<f64> = edges
+        .windows(2)
+        .map(|w| w[1].0 - w[0].0)
+        .filter(|&d| d < 5e-6)
+        .collect();
     assert!(pulses.len() >= 2, "short pulses expected: {edges:?}");
 }
 
@@ -88,7 +106,18 @@ fn noise_depends_on_the_seed() {
         let mut params = PlantParams::default();
         params.sensing.seed = seed;
         params.sensing.comparator.noise_v = 20e-3;
-        let mut eng = engine(params, Hold(hold("VGF", 1000, Abc { u: false, v: false, w: true })));
+        let mut eng = engine(
+            params,
+            Hold(hold(
+                "VGF",
+                1000,
+                Abc {
+                    u: false,
+                    v: false,
+                    w: true,
+                },
+            )),
+        );
         eng.plant.set_rotor(55f64.to_radians(), RPM, true);
         let mut n = Vec::new();
         eng.run_until(Ticks::from_seconds(100e-6).unwrap(), |e, r| {

@@ -32,10 +32,12 @@ fn step_loop_does_not_allocate() {
     let step = Ticks::from_seconds(1.0 / (3000.0 / 60.0 * 36.0)).unwrap();
     let mut e = common::engine(PlantParams::default(), OpenLoopSixStep::new(step, 1000, 1));
     e.plant.set_rotor(0.5, 3000.0, true);
-    e.run_until(Ticks::from_seconds(1e-3).unwrap(), |_, _| {}).unwrap();
+    e.run_until(Ticks::from_seconds(1e-3).unwrap(), |_, _| {})
+        .unwrap();
     let before = ALLOCS.load(Ordering::Relaxed);
     let mut stops = 0u64;
-    e.run_until(Ticks::from_seconds(20e-3).unwrap(), |_, _| stops += 1).unwrap();
+    e.run_until(Ticks::from_seconds(20e-3).unwrap(), |_, _| stops += 1)
+        .unwrap();
     let after = ALLOCS.load(Ordering::Relaxed);
     assert!(stops > 1000, "the loop ran: {stops} stops");
     assert!(e.plant.comparator_toggles() > 100 && e.plant.stats().diode_events > 10);

@@ -8,7 +8,10 @@ fn refused(edit: impl FnOnce(&mut PlantParams), field: &str, rule_word: &str) {
     let err = p.validate().expect_err(field);
     assert_eq!(err.field, field);
     let msg = err.to_string();
-    assert!(msg.contains(field) && msg.contains(rule_word), "message `{msg}` must name `{field}` and `{rule_word}`");
+    assert!(
+        msg.contains(field) && msg.contains(rule_word),
+        "message `{msg}` must name `{field}` and `{rule_word}`"
+    );
     assert!(BldcPlant::new(p).is_err(), "the plant must refuse it too");
 }
 
@@ -29,16 +32,40 @@ fn defaults_are_valid_and_published() {
 
 #[test]
 fn motor_rules() {
-    refused(|p| p.motor.resistance_ohm = -2.2, "motor.resistance_ohm", "> 0");
+    refused(
+        |p| p.motor.resistance_ohm = -2.2,
+        "motor.resistance_ohm",
+        "> 0",
+    );
     refused(|p| p.motor.inertia_kgm2 = 0.0, "motor.inertia_kgm2", "> 0");
-    refused(|p| p.motor.flux_linkage_wb = f64::NAN, "motor.flux_linkage_wb", "finite");
-    refused(|p| p.motor.self_inductance_h = f64::INFINITY, "motor.self_inductance_h", "finite");
+    refused(
+        |p| p.motor.flux_linkage_wb = f64::NAN,
+        "motor.flux_linkage_wb",
+        "finite",
+    );
+    refused(
+        |p| p.motor.self_inductance_h = f64::INFINITY,
+        "motor.self_inductance_h",
+        "finite",
+    );
     refused(|p| p.motor.poles = 0, "motor.poles", "even");
     refused(|p| p.motor.poles = 7, "motor.poles", "even");
-    refused(|p| p.motor.viscous_friction_nms = -1e-6, "motor.viscous_friction_nms", ">= 0");
-    refused(|p| p.motor.mutual_inductance_h = -1e-4, "motor.mutual_inductance_h", ">= 0");
     refused(
-        |p| p.motor.back_emf = BackEmfShape::Trapezoidal { flat_top_deg: 200.0 },
+        |p| p.motor.viscous_friction_nms = -1e-6,
+        "motor.viscous_friction_nms",
+        ">= 0",
+    );
+    refused(
+        |p| p.motor.mutual_inductance_h = -1e-4,
+        "motor.mutual_inductance_h",
+        ">= 0",
+    );
+    refused(
+        |p| {
+            p.motor.back_emf = BackEmfShape::Trapezoidal {
+                flat_top_deg: 200.0,
+            }
+        },
         "motor.back_emf.flat_top_deg",
         "179",
     );
@@ -46,14 +73,46 @@ fn motor_rules() {
 
 #[test]
 fn power_stage_and_sensing_rules() {
-    refused(|p| p.power_stage.supply_v = 0.0, "power_stage.supply_v", "> 0");
-    refused(|p| p.power_stage.diode_forward_v = -0.7, "power_stage.diode_forward_v", ">= 0");
-    refused(|p| p.power_stage.dead_time_s = 1.0, "power_stage.dead_time_s", "10e-6");
-    refused(|p| p.sensing.current.adc_bits = 0, "sensing.current.adc_bits", "1..=16");
-    refused(|p| p.sensing.current.filter_cutoff_hz = 0.0, "sensing.current.filter_cutoff_hz", "10 Hz");
-    refused(|p| p.sensing.comparator.hysteresis_v = -0.01, "sensing.comparator.hysteresis_v", "0 ..= 1 V");
-    refused(|p| p.sensing.comparator.offset_v.w = 5.0, "sensing.comparator.offset_v.w", "-1 ..= 1 V");
-    refused(|p| p.sensing.comparator.delay_s = f64::NAN, "sensing.comparator.delay_s", "100e-6");
+    refused(
+        |p| p.power_stage.supply_v = 0.0,
+        "power_stage.supply_v",
+        "> 0",
+    );
+    refused(
+        |p| p.power_stage.diode_forward_v = -0.7,
+        "power_stage.diode_forward_v",
+        ">= 0",
+    );
+    refused(
+        |p| p.power_stage.dead_time_s = 1.0,
+        "power_stage.dead_time_s",
+        "10e-6",
+    );
+    refused(
+        |p| p.sensing.current.adc_bits = 0,
+        "sensing.current.adc_bits",
+        "1..=16",
+    );
+    refused(
+        |p| p.sensing.current.filter_cutoff_hz = 0.0,
+        "sensing.current.filter_cutoff_hz",
+        "10 Hz",
+    );
+    refused(
+        |p| p.sensing.comparator.hysteresis_v = -0.01,
+        "sensing.comparator.hysteresis_v",
+        "0 ..= 1 V",
+    );
+    refused(
+        |p| p.sensing.comparator.offset_v.w = 5.0,
+        "sensing.comparator.offset_v.w",
+        "-1 ..= 1 V",
+    );
+    refused(
+        |p| p.sensing.comparator.delay_s = f64::NAN,
+        "sensing.comparator.delay_s",
+        "100e-6",
+    );
     refused(|p| p.solver.max_step_s = 1.0, "solver.max_step_s", "100e-6");
 }
 
@@ -65,9 +124,18 @@ fn toml_round_trip_and_unknown_keys() {
     assert_eq!(back, p);
     let partial: PlantParams = toml::from_str("[motor]\nresistance_ohm = 3.0\n").unwrap();
     assert_eq!(partial.motor.resistance_ohm, 3.0);
-    assert_eq!(partial.motor.poles, 12, "unspecified keys keep their defaults");
+    assert_eq!(
+        partial.motor.poles, 12,
+        "unspecified keys keep their defaults"
+    );
     let err = toml::from_str::<PlantParams>("[motor]\nresistence_ohm = 3.0\n").unwrap_err();
     assert!(err.to_string().contains("resistence_ohm"), "{err}");
-    let shape: PlantParams = toml::from_str("[motor.back_emf]\nkind = \"trapezoidal\"\nflat_top_deg = 120.0\n").unwrap();
-    assert_eq!(shape.motor.back_emf, BackEmfShape::Trapezoidal { flat_top_deg: 120.0 });
+    let shape: PlantParams =
+        toml::from_str("[motor.back_emf]\nkind = \"trapezoidal\"\nflat_top_deg = 120.0\n").unwrap();
+    assert_eq!(
+        shape.motor.back_emf,
+        BackEmfShape::Trapezoidal {
+            flat_top_deg: 120.0
+        }
+    );
 }

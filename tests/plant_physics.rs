@@ -25,7 +25,11 @@ fn rl_step(params: PlantParams) {
             let o = e.plant.observe();
             let want = i_inf * (1.0 - (-o.t_s / tau).exp());
             worst = worst.max((o.i.u - want).abs() / want);
-            assert!((o.i.u + o.i.v).abs() < 1e-12 && o.i.w == 0.0, "u→v only: {:?}", o.i);
+            assert!(
+                (o.i.u + o.i.v).abs() < 1e-12 && o.i.w == 0.0,
+                "u→v only: {:?}",
+                o.i
+            );
             samples += 1;
         }
     })
@@ -67,11 +71,23 @@ fn energy_balance_and_torque_consistency_with_pwm() {
         let third = 2.0 * std::f64::consts::PI / 3.0;
         let te = pp
             * m.flux_linkage_wb
-            * (o.i.u * o.theta_e.sin() + o.i.v * (o.theta_e - third).sin() + o.i.w * (o.theta_e + third).sin());
+            * (o.i.u * o.theta_e.sin()
+                + o.i.v * (o.theta_e - third).sin()
+                + o.i.w * (o.theta_e + third).sin());
         let p_ei = emf.u * o.i.u + emf.v * o.i.v + emf.w * o.i.w;
         let scale = 1e-3 * (1.0 + o.omega_m.abs());
-        assert!((o.torque_nm - te).abs() < 1e-15, "Te {} vs SPEC {}", o.torque_nm, te);
-        assert!((te * o.omega_m - p_ei).abs() < 1e-12 * scale, "Te·ωm {} vs Σe·i {}", te * o.omega_m, p_ei);
+        assert!(
+            (o.torque_nm - te).abs() < 1e-15,
+            "Te {} vs SPEC {}",
+            o.torque_nm,
+            te
+        );
+        assert!(
+            (te * o.omega_m - p_ei).abs() < 1e-12 * scale,
+            "Te·ωm {} vs Σe·i {}",
+            te * o.omega_m,
+            p_ei
+        );
         for (a, b) in [(o.emf.u, emf.u), (o.emf.v, emf.v), (o.emf.w, emf.w)] {
             assert!((a - b).abs() < 1e-12);
         }
@@ -81,9 +97,13 @@ fn energy_balance_and_torque_consistency_with_pwm() {
     assert!(checked > 1000);
     let st = eng.plant.stats();
     // One freewheel ends at each of the 54 commutations (600 rpm for 0.15 s).
-    assert!(st.diode_events >= 40, "freewheeling must end in located events: {st:?}");
+    assert!(
+        st.diode_events >= 40,
+        "freewheeling must end in located events: {st:?}"
+    );
     let e = eng.plant.energy();
-    let out = e.copper + e.switch + e.diode + e.shunt + e.friction + e.load + e.magnetic + e.kinetic;
+    let out =
+        e.copper + e.switch + e.diode + e.shunt + e.friction + e.load + e.magnetic + e.kinetic;
     assert!(e.supply > 1e-3 && e.diode > 0.0 && e.kinetic > 0.0, "{e:?}");
     let rel = (e.supply - out).abs() / e.supply;
     assert!(rel < 0.01, "energy balance off by {rel}: {e:?}");
@@ -103,7 +123,11 @@ fn all_switches_off_terminal_minus_neutral_is_the_back_emf() {
         let o = e.plant.observe();
         let emf = spec_emf(&params, o.theta_e, o.omega_m);
         assert_eq!(o.i, Abc::splat(0.0));
-        for (vt, ex) in [(o.v_term.u, emf.u), (o.v_term.v, emf.v), (o.v_term.w, emf.w)] {
+        for (vt, ex) in [
+            (o.v_term.u, emf.u),
+            (o.v_term.v, emf.v),
+            (o.v_term.w, emf.w),
+        ] {
             assert!((vt - o.v_n - ex).abs() < 1e-12, "{} vs {}", vt - o.v_n, ex);
         }
         n += 1;
@@ -142,22 +166,41 @@ fn open_phase(before: &str, after: &str, diode: Conduction) {
             None if o.conduction.u == diode => {
                 // Clamped to the rail through the diode, current decaying.
                 let want = match diode {
-                    Conduction::DiodeLow => o.i_shunt * ps.shunt_ohm - ps.diode_forward_v - ps.diode_resistance_ohm * o.i.u,
+                    Conduction::DiodeLow => {
+                        o.i_shunt * ps.shunt_ohm
+                            - ps.diode_forward_v
+                            - ps.diode_resistance_ohm * o.i.u
+                    }
                     _ => ps.supply_v + ps.diode_forward_v - ps.diode_resistance_ohm * o.i.u,
                 };
-                assert!((o.v_term.u - want).abs() < 1e-9, "clamp {} vs {}", o.v_term.u, want);
-                assert!(o.i.u.abs() <= prev_abs + 1e-15, "freewheel current must decay");
+                assert!(
+                    (o.v_term.u - want).abs() < 1e-9,
+                    "clamp {} vs {}",
+                    o.v_term.u,
+                    want
+                );
+                assert!(
+                    o.i.u.abs() <= prev_abs + 1e-15,
+                    "freewheel current must decay"
+                );
                 prev_abs = o.i.u.abs();
             }
             None => {
-                assert_eq!(r, StopReason::Diode, "the diode turns off at a located event");
+                assert_eq!(
+                    r,
+                    StopReason::Diode,
+                    "the diode turns off at a located event"
+                );
                 assert_eq!(o.i.u, 0.0, "exactly zero");
                 zero_at = Some(o.t_s);
             }
             Some(_) => {
                 reconducted |= o.i.u != 0.0 || o.conduction.u != Conduction::Open;
                 let emf = spec_emf(&params, o.theta_e, o.omega_m);
-                assert!((o.v_term.u - o.v_n - emf.u).abs() < 1e-9, "floats at v_n + e_u");
+                assert!(
+                    (o.v_term.u - o.v_n - emf.u).abs() < 1e-9,
+                    "floats at v_n + e_u"
+                );
             }
         }
     })
@@ -166,8 +209,14 @@ fn open_phase(before: &str, after: &str, diode: Conduction) {
     assert!(i0.abs() > 0.5, "a real current was flowing: {i0}");
     let t_zero = zero_at.expect("the current reached zero") - t_open.seconds();
     // The freewheel lasts a fraction of the electrical time constant (~0.4 ms), not forever.
-    assert!(t_zero > 1e-6 && t_zero < 1e-3, "freewheel lasted {t_zero} s");
-    assert!(!reconducted, "no chatter: the phase stays open after its current reached zero");
+    assert!(
+        t_zero > 1e-6 && t_zero < 1e-3,
+        "freewheel lasted {t_zero} s"
+    );
+    assert!(
+        !reconducted,
+        "no chatter: the phase stays open after its current reached zero"
+    );
 }
 
 #[test]

@@ -47,7 +47,11 @@ impl<T: Copy> Abc<T> {
 
     /// Builds a triple from a function of the phase.
     pub fn from_fn(mut f: impl FnMut(Phase) -> T) -> Self {
-        Abc { u: f(Phase::U), v: f(Phase::V), w: f(Phase::W) }
+        Abc {
+            u: f(Phase::U),
+            v: f(Phase::V),
+            w: f(Phase::W),
+        }
     }
 
     /// The value of one phase.
@@ -70,7 +74,11 @@ impl<T: Copy> Abc<T> {
 
     /// Applies `f` to every phase.
     pub fn map<R: Copy>(self, mut f: impl FnMut(T) -> R) -> Abc<R> {
-        Abc { u: f(self.u), v: f(self.v), w: f(self.w) }
+        Abc {
+            u: f(self.u),
+            v: f(self.v),
+            w: f(self.w),
+        }
     }
 
     /// The values in order u, v, w.

@@ -70,7 +70,10 @@ pub struct ShootThrough {
 
 impl Gates {
     /// Every switch off.
-    pub const OFF: Gates = Gates { high: Abc::splat(false), low: Abc::splat(false) };
+    pub const OFF: Gates = Gates {
+        high: Abc::splat(false),
+        low: Abc::splat(false),
+    };
 
     /// Refuses a pattern with both switches of a leg on.
     pub fn validate(&self) -> Result<(), ShootThrough> {
@@ -119,7 +122,11 @@ mod tests {
     #[test]
     fn chip_signals_of_twelve_step_state_1_and_off() {
         // SPEC §3 state 1: u=V, v=G, w=V → Tr1..Tr6 = 0 0 1 1 0 0.
-        let g = Gates::from_pattern(&Abc { u: LegState::High, v: LegState::Low, w: LegState::High });
+        let g = Gates::from_pattern(&Abc {
+            u: LegState::High,
+            v: LegState::Low,
+            w: LegState::High,
+        });
         assert_eq!(g.to_chip_signals(), [0, 0, 1, 1, 0, 0]);
         // "off" (flag 0110): all floating → 1 0 1 0 1 0.
         assert_eq!(Gates::OFF.to_chip_signals(), [1, 0, 1, 0, 1, 0]);

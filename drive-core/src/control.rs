@@ -31,8 +31,12 @@ pub struct Command {
 
 impl Command {
     /// Everything off, nothing watched, no wake-up.
-    pub const OFF: Command =
-        Command { pattern: ALL_FLOAT, duty: 0, watch: Abc::splat(false), wake_at: Ticks::NEVER };
+    pub const OFF: Command = Command {
+        pattern: ALL_FLOAT,
+        duty: 0,
+        watch: Abc::splat(false),
+        wake_at: Ticks::NEVER,
+    };
 }
 
 /// A clocked controller (commutation strategy, speed/current control, supervision).
@@ -78,7 +82,10 @@ impl Controller for Hold {
         Ticks(1)
     }
     fn tick(&mut self, _now: Ticks, _sensed: &Sensed) -> Command {
-        Command { wake_at: Ticks::NEVER, ..self.0 }
+        Command {
+            wake_at: Ticks::NEVER,
+            ..self.0
+        }
     }
 }
 
@@ -103,12 +110,19 @@ pub struct OpenLoopSixStep {
 impl OpenLoopSixStep {
     /// Steps every `step` ticks at `duty`, starting in table index `first_state`.
     pub fn new(step: Ticks, duty: crate::pwm::DutyCounts, first_state: usize) -> Self {
-        OpenLoopSixStep { step, duty, first_state, clock: crate::time::clocks::COMMUTATION, last: None, zc_edges: 0 }
+        OpenLoopSixStep {
+            step,
+            duty,
+            first_state,
+            clock: crate::time::clocks::COMMUTATION,
+            last: None,
+            zc_edges: 0,
+        }
     }
 
     /// Table index (0..5) in force at `now`.
     pub fn state_at(&self, now: Ticks) -> usize {
-        let n = if self.step.0 == 0 { 0 } else { now.0 / self.step.0 };
+        let n = now.0.checked_div(self.step.0).unwrap_or(0);
         ((self.first_state as u64 + n) % 6) as usize
     }
 }
@@ -130,7 +144,15 @@ impl Controller for OpenLoopSixStep {
         }
         self.last = Some((k, level));
         let watch = Abc::from_fn(|x| Some(x) == floating);
-        let next = if self.step.0 == 0 { Ticks::NEVER } else { Ticks((now.0 / self.step.0 + 1) * self.step.0) };
-        Command { pattern, duty: self.duty, watch, wake_at: next }
+        let next = now
+            .0
+            .checked_div(self.step.0)
+            .map_or(Ticks::NEVER, |n| Ticks((n + 1) * self.step.0));
+        Command {
+            pattern,
+            duty: self.duty,
+            watch,
+            wake_at: next,
+        }
     }
 }

@@ -114,12 +114,17 @@ impl<P: Plant, C: Controller, S: PwmScheme> Engine<P, C, S> {
     pub fn step(&mut self, end: Ticks) -> Result<StopReason, EngineError> {
         if !self.started {
             self.started = true;
-            return self.act(self.now, true, false).map(|_| StopReason::ControllerTick);
+            return self
+                .act(self.now, true, false)
+                .map(|_| StopReason::ControllerTick);
         }
         if self.now >= end {
             return Ok(StopReason::End);
         }
-        let pwm_edge = self.carrier.next_edge(self.now, self.cmd.duty).unwrap_or(Ticks::NEVER);
+        let pwm_edge = self
+            .carrier
+            .next_edge(self.now, self.cmd.duty)
+            .unwrap_or(Ticks::NEVER);
         let release = self.driver.next_release();
         let sample = if self.sample_period == Ticks::NEVER {
             Ticks::NEVER
@@ -154,7 +159,11 @@ impl<P: Plant, C: Controller, S: PwmScheme> Engine<P, C, S> {
     }
 
     /// Steps until `end`, calling `on_step` after every stop.
-    pub fn run_until(&mut self, end: Ticks, mut on_step: impl FnMut(&Self, StopReason)) -> Result<(), EngineError> {
+    pub fn run_until(
+        &mut self,
+        end: Ticks,
+        mut on_step: impl FnMut(&Self, StopReason),
+    ) -> Result<(), EngineError> {
         loop {
             let r = self.step(end)?;
             on_step(self, r);
@@ -171,14 +180,21 @@ impl<P: Plant, C: Controller, S: PwmScheme> Engine<P, C, S> {
             self.cmd = self.controller.tick(t, &sensed);
             let clock = self.controller.clock();
             let asked = self.cmd.wake_at.max(Ticks(t.0 + 1));
-            self.wake = if self.cmd.wake_at == Ticks::NEVER { Ticks::NEVER } else { asked.next_edge(clock) };
+            self.wake = if self.cmd.wake_at == Ticks::NEVER {
+                Ticks::NEVER
+            } else {
+                asked.next_edge(clock)
+            };
         }
         self.pwm_on = self.carrier.is_on(t, self.cmd.duty);
         let before = self.driver.effective();
         let commanded = self.scheme.gates(&self.cmd.pattern, self.pwm_on);
         self.driver
             .command(t, commanded)
-            .map_err(|source| EngineError::ShootThrough { time_s: t.seconds(), source })?;
+            .map_err(|source| EngineError::ShootThrough {
+                time_s: t.seconds(),
+                source,
+            })?;
         if released {
             self.driver.release(t);
         }
@@ -223,7 +239,14 @@ mod tests {
             PlantStop::Reached
         }
         fn sensed(&self, at: Ticks) -> Sensed {
-            Sensed { zc: Abc { u: false, v: false, w: self.level && at >= self.change_at }, current_code: 0 }
+            Sensed {
+                zc: Abc {
+                    u: false,
+                    v: false,
+                    w: self.level && at >= self.change_at,
+                },
+                current_code: 0,
+            }
         }
     }
 
@@ -243,14 +266,41 @@ mod tests {
     }
 
     fn engine(cmd: Command, change_at: Ticks) -> Engine<MockPlant, Logger, HighSideChop> {
-        let plant = MockPlant { t: Ticks::ZERO, change_at, level: false, gate_log: Vec::new() };
-        Engine::new(plant, Logger { calls: Vec::new(), cmd }, HighSideChop, Carrier { top: 100 }, Ticks::ZERO)
+        let plant = MockPlant {
+            t: Ticks::ZERO,
+            change_at,
+            level: false,
+            gate_log: Vec::new(),
+        };
+        Engine::new(
+            plant,
+            Logger {
+                calls: Vec::new(),
+                cmd,
+            },
+            HighSideChop,
+            Carrier { top: 100 },
+            Ticks::ZERO,
+        )
     }
 
     #[test]
     fn controller_runs_at_the_clock_edge_after_a_watched_change_and_when_asked() {
-        let pattern = Abc { u: LegState::High, v: LegState::Low, w: LegState::Float };
-        let cmd = Command { pattern, duty: 100, watch: Abc { u: false, v: false, w: true }, wake_at: Ticks(1000) };
+        let pattern = Abc {
+            u: LegState::High,
+            v: LegState::Low,
+            w: LegState::Float,
+        };
+        let cmd = Command {
+            pattern,
+            duty: 100,
+            watch: Abc {
+                u: false,
+                v: false,
+                w: true,
+            },
+            wake_at: Ticks(1000),
+        };
         let mut e = engine(cmd, Ticks(100));
         e.run_until(Ticks(1100), |_, _| {}).unwrap();
         let calls = &e.controller.calls;
@@ -259,18 +309,44 @@ mod tests {
         assert_eq!(calls[1], (Ticks(128), true));
         // wake_at 1000 → the next clock edge at or after it, 1024.
         assert!(calls.iter().any(|&(t, _)| t == Ticks(1024)));
-        assert!(calls.iter().all(|&(t, _)| t.0 % 32 == 0), "only clock edges: {calls:?}");
+        assert!(
+            calls.iter().all(|&(t, _)| t.0 % 32 == 0),
+            "only clock edges: {calls:?}"
+        );
     }
 
     #[test]
     fn pwm_edges_switch_the_gates_on_exact_ticks() {
-        let pattern = Abc { u: LegState::High, v: LegState::Low, w: LegState::Float };
-        let cmd = Command { pattern, duty: 25, watch: Abc::splat(false), wake_at: Ticks::NEVER };
+        let pattern = Abc {
+            u: LegState::High,
+            v: LegState::Low,
+            w: LegState::Float,
+        };
+        let cmd = Command {
+            pattern,
+            duty: 25,
+            watch: Abc::splat(false),
+            wake_at: Ticks::NEVER,
+        };
         let mut e = engine(cmd, Ticks::NEVER);
         e.run_until(Ticks(400), |_, _| {}).unwrap();
         // Carrier top 100 (period 200), cv 25: on for p < 25 or p ≥ 175.
-        let changes: Vec<(u64, bool)> = e.plant.gate_log.iter().map(|(t, g)| (t.0, g.high.u)).collect();
-        assert_eq!(changes, vec![(0, true), (25, false), (175, true), (225, false), (375, true)]);
+        let changes: Vec<(u64, bool)> = e
+            .plant
+            .gate_log
+            .iter()
+            .map(|(t, g)| (t.0, g.high.u))
+            .collect();
+        assert_eq!(
+            changes,
+            vec![
+                (0, true),
+                (25, false),
+                (175, true),
+                (225, false),
+                (375, true)
+            ]
+        );
         assert!(e.plant.gate_log.iter().all(|(_, g)| g.low.v && !g.high.v));
     }
 
@@ -285,8 +361,16 @@ mod tests {
                 g
             }
         }
-        let plant = MockPlant { t: Ticks::ZERO, change_at: Ticks::NEVER, level: false, gate_log: Vec::new() };
-        let logger = Logger { calls: Vec::new(), cmd: Command::OFF };
+        let plant = MockPlant {
+            t: Ticks::ZERO,
+            change_at: Ticks::NEVER,
+            level: false,
+            gate_log: Vec::new(),
+        };
+        let logger = Logger {
+            calls: Vec::new(),
+            cmd: Command::OFF,
+        };
         let mut e = Engine::new(plant, logger, Bad, Carrier::default(), Ticks::ZERO);
         let err = e.step(Ticks(10)).unwrap_err();
         assert!(err.to_string().contains("shoot-through"), "{err}");

@@ -15,12 +15,22 @@ pub struct ParamError {
 impl ParamError {
     /// Builds an error for `field`.
     pub fn new(field: impl Into<String>, value: f64, rule: &'static str) -> Self {
-        ParamError { field: field.into(), value, rule }
+        ParamError {
+            field: field.into(),
+            value,
+            rule,
+        }
     }
 }
 
 /// Checks that `value` is finite and in `[min, max]`, naming `field` otherwise.
-pub fn check_range(field: &str, value: f64, min: f64, max: f64, rule: &'static str) -> Result<(), ParamError> {
+pub fn check_range(
+    field: &str,
+    value: f64,
+    min: f64,
+    max: f64,
+    rule: &'static str,
+) -> Result<(), ParamError> {
     if value.is_finite() && value >= min && value <= max {
         Ok(())
     } else {

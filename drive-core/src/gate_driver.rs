@@ -20,7 +20,12 @@ pub struct GateDriver {
 impl GateDriver {
     /// A driver with every switch off. `dead_time` = 0 passes commands straight through.
     pub fn new(dead_time: Ticks) -> Self {
-        GateDriver { dead_time, commanded: Gates::OFF, effective: Gates::OFF, pending_on: [Ticks::NEVER; 6] }
+        GateDriver {
+            dead_time,
+            commanded: Gates::OFF,
+            effective: Gates::OFF,
+            pending_on: [Ticks::NEVER; 6],
+        }
     }
 
     /// The gates the bridge actually sees.
@@ -34,11 +39,13 @@ impl GateDriver {
     }
 
     /// Takes a new command at `now`; refuses a shoot-through command.
+    #[allow(clippy::needless_range_loop)] // three arrays indexed together
     pub fn command(&mut self, now: Ticks, gates: Gates) -> Result<(), ShootThrough> {
         gates.validate()?;
         self.commanded = gates;
         let cmd = flatten(&gates);
         let mut eff = flatten(&self.effective);
+
         for k in 0..6 {
             if !cmd[k] {
                 eff[k] = false;
@@ -69,7 +76,11 @@ impl GateDriver {
 
     /// The next pending turn-on, or [`Ticks::NEVER`].
     pub fn next_release(&self) -> Ticks {
-        self.pending_on.iter().copied().min().unwrap_or(Ticks::NEVER)
+        self.pending_on
+            .iter()
+            .copied()
+            .min()
+            .unwrap_or(Ticks::NEVER)
     }
 }
 
@@ -79,7 +90,8 @@ fn flatten(g: &Gates) -> [bool; 6] {
 
 fn unflatten(f: [bool; 6]) -> Gates {
     let mut g = Gates::OFF;
-    (g.high.u, g.low.u, g.high.v, g.low.v, g.high.w, g.low.w) = (f[0], f[1], f[2], f[3], f[4], f[5]);
+    (g.high.u, g.low.u, g.high.v, g.low.v, g.high.w, g.low.w) =
+        (f[0], f[1], f[2], f[3], f[4], f[5]);
     g
 }
 

@@ -29,7 +29,11 @@ impl Carrier {
     /// Checks the parameter rules.
     pub fn validate(&self) -> Result<(), ParamError> {
         if !(1..=1_000_000).contains(&self.top) {
-            return Err(ParamError::new("pwm.top", self.top as f64, "must be 1 ..= 1000000 counts"));
+            return Err(ParamError::new(
+                "pwm.top",
+                self.top as f64,
+                "must be 1 ..= 1000000 counts",
+            ));
         }
         Ok(())
     }
@@ -60,7 +64,13 @@ impl Carrier {
         }
         let base = t.0 - t.0 % n;
         let p = t.0 % n;
-        let next = if p < cv { base + cv } else if p < n - cv { base + n - cv } else { base + n + cv };
+        let next = if p < cv {
+            base + cv
+        } else if p < n - cv {
+            base + n - cv
+        } else {
+            base + n + cv
+        };
         Some(Ticks(next))
     }
 }
@@ -151,14 +161,22 @@ mod tests {
 
     #[test]
     fn schemes_chop_the_right_switch() {
-        let p = Abc { u: LegState::High, v: LegState::Low, w: LegState::Float };
+        let p = Abc {
+            u: LegState::High,
+            v: LegState::Low,
+            w: LegState::Float,
+        };
         let off = HighSideChop.gates(&p, false);
         assert!(!off.high.u && off.low.v && !off.low.u);
         let off = LowSideChop.gates(&p, false);
         assert!(off.high.u && !off.low.v);
         let off = Complementary.gates(&p, false);
         assert!(!off.high.u && off.low.u && off.low.v && !off.high.w && !off.low.w);
-        for s in [&HighSideChop as &dyn PwmScheme, &LowSideChop, &Complementary] {
+        for s in [
+            &HighSideChop as &dyn PwmScheme,
+            &LowSideChop,
+            &Complementary,
+        ] {
             for on in [false, true] {
                 assert!(s.gates(&p, on).validate().is_ok());
             }

@@ -11,7 +11,9 @@ use std::ops::{Add, AddAssign, Sub};
 pub const TICK_S: f64 = 20e-9;
 
 /// An instant or a duration counted in master ticks (20 ns).
-#[derive(Copy, Clone, Debug, Default, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
+#[derive(
+    Copy, Clone, Debug, Default, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize,
+)]
 #[serde(transparent)]
 pub struct Ticks(pub u64);
 
@@ -30,7 +32,7 @@ impl Ticks {
     /// beyond the range of the counter.
     pub fn from_seconds(seconds: f64) -> Option<Ticks> {
         let t = (seconds / TICK_S).round();
-        (t.is_finite() && t >= 0.0 && t < 1.8e19).then_some(Ticks(t as u64))
+        (t.is_finite() && (0.0..1.8e19).contains(&t)).then_some(Ticks(t as u64))
     }
 
     /// The first instant `>= self` that is a whole multiple of `period` (a clock edge).
@@ -40,7 +42,11 @@ impl Ticks {
             return self;
         }
         let rem = self.0 % period.0;
-        if rem == 0 { self } else { Ticks(self.0.saturating_add(period.0 - rem)) }
+        if rem == 0 {
+            self
+        } else {
+            Ticks(self.0.saturating_add(period.0 - rem))
+        }
     }
 }
 

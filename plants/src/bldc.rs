@@ -124,7 +124,12 @@ impl BldcPlant {
         let e = Abc::splat(0.0);
         let modes = circuit.resolve(&Gates::OFF, &Abc::splat(0.0), &e);
         let start = circuit.solve(&modes, &Abc::splat(0.0), &e);
-        let cmp = ComparatorBank::new(&params.sensing.comparator, params.sensing.seed, &start.v_term, start.v_n);
+        let cmp = ComparatorBank::new(
+            &params.sensing.comparator,
+            params.sensing.seed,
+            &start.v_term,
+            start.v_n,
+        );
         let cur = CurrentSense::new(&params.sensing.current, params.power_stage.shunt_ohm);
         Ok(BldcPlant {
             circuit,
@@ -168,7 +173,12 @@ impl BldcPlant {
         self.speed_lock = lock;
         self.refresh_start();
         let (v, vn) = (self.start.v_term, self.start.v_n);
-        self.cmp = ComparatorBank::new(&self.params.sensing.comparator, self.params.sensing.seed, &v, vn);
+        self.cmp = ComparatorBank::new(
+            &self.params.sensing.comparator,
+            self.params.sensing.seed,
+            &v,
+            vn,
+        );
     }
 
     /// Work counters.
@@ -192,7 +202,11 @@ impl BldcPlant {
     }
 
     fn currents(x: &State) -> Abc<f64> {
-        Abc { u: x[0], v: x[1], w: x[2] }
+        Abc {
+            u: x[0],
+            v: x[1],
+            w: x[2],
+        }
     }
 
     fn emf_of(&self, x: &State) -> (Abc<f64>, Abc<f64>) {
@@ -206,13 +220,19 @@ impl BldcPlant {
         self.circuit.solve(&self.modes, &Self::currents(x), &e)
     }
 
-    fn deriv(&self, x: &State) -> State {
-        let (f, e) = self.emf_of(x);
+    fn deriv(&self, x: &State, base: (f64, f64, f64)) -> State {
+        let f = emf::shape_with(&self.shape, x[THETA], emf::sin_cos_near(x[THETA], base));
+        let k = self.lambda * self.pp * x[OMEGA];
+        let e = f.map(|v| k * v);
         let i = Self::currents(x);
         let s = self.circuit.solve(&self.modes, &i, &e);
         let wm = x[OMEGA];
         let te = self.pp * self.lambda * (i.u * f.u + i.v * f.v + i.w * f.w);
-        let dw = if self.speed_lock { 0.0 } else { (te - self.friction * wm - self.load_nm) / self.inertia };
+        let dw = if self.speed_lock {
+            0.0
+        } else {
+            (te - self.friction * wm - self.load_nm) / self.inertia
+        };
         let p = s.powers;
         State::from([
             s.di.u,
@@ -232,10 +252,13 @@ impl BldcPlant {
     }
 
     fn rk4(&self, x: &State, h: f64) -> State {
-        let k1 = self.deriv(x);
-        let k2 = self.deriv(&(x + k1 * (0.5 * h)));
-        let k3 = self.deriv(&(x + k2 * (0.5 * h)));
-        let k4 = self.deriv(&(x + k3 * h));
+        // One sin/cos per step; the stages' angles are reached by angle addition.
+        let (s, c) = x[THETA].sin_cos();
+        let base = (x[THETA], s, c);
+        let k1 = self.deriv(x, base);
+        let k2 = self.deriv(&(x + k1 * (0.5 * h)), base);
+        let k3 = self.deriv(&(x + k2 * (0.5 * h)), base);
+        let k4 = self.deriv(&(x + k3 * h), base);
         x + (k1 + (k2 + k3) * 2.0 + k4) * (h / 6.0)
     }
 
@@ -245,7 +268,10 @@ impl BldcPlant {
         match self.modes.get(p) {
             Conduction::DiodeLow => x[p.index()],
             Conduction::DiodeHigh => -x[p.index()],
-            Conduction::Open => -self.circuit.clamp_violation(s.v_term.get(p), s.i_shunt).abs(),
+            Conduction::Open => -self
+                .circuit
+                .clamp_violation(s.v_term.get(p), s.i_shunt)
+                .abs(),
             _ => f64::INFINITY,
         }
     }
@@ -299,8 +325,12 @@ impl BldcPlant {
 
     fn refresh_start(&mut self) {
         let (_, e) = self.emf_of(&self.x);
-        self.modes = self.circuit.resolve(&self.gates, &Self::currents(&self.x), &e);
-        self.start = self.circuit.solve(&self.modes, &Self::currents(&self.x), &e);
+        self.modes = self
+            .circuit
+            .resolve(&self.gates, &Self::currents(&self.x), &e);
+        self.start = self
+            .circuit
+            .solve(&self.modes, &Self::currents(&self.x), &e);
     }
 
     fn tick_of(t: f64) -> Ticks {
@@ -404,7 +434,14 @@ impl Plant for BldcPlant {
                 }
             }
             let cur0 = self.cur;
-            self.cmp.update(t0, t1, &self.start.v_term, self.start.v_n, &s1.v_term, s1.v_n);
+            self.cmp.update(
+                t0,
+                t1,
+                &self.start.v_term,
+                self.start.v_n,
+                &s1.v_term,
+                s1.v_n,
+            );
             self.cur.update(t0, t1, self.start.i_shunt, s1.i_shunt);
             if let Some(tv) = self.cmp.next_visible_change(tick0, watch) {
                 let tvs = tv.seconds();
@@ -437,7 +474,11 @@ impl Plant for BldcPlant {
                         self.x[q.index()] += residual;
                     }
                 }
-                self.same_instant_events = if t1 - t0 < 1e-12 { self.same_instant_events + 1 } else { 0 };
+                self.same_instant_events = if t1 - t0 < 1e-12 {
+                    self.same_instant_events + 1
+                } else {
+                    0
+                };
                 self.refresh_start();
                 self.stats.diode_events += 1;
                 return PlantStop::Diode;
@@ -453,6 +494,9 @@ impl Plant for BldcPlant {
     }
 
     fn sensed(&self, at: Ticks) -> Sensed {
-        Sensed { zc: self.cmp.outputs_at(at), current_code: self.cur.code_at(at) }
+        Sensed {
+            zc: self.cmp.outputs_at(at),
+            current_code: self.cur.code_at(at),
+        }
     }
 }

@@ -158,7 +158,10 @@ impl Circuit {
         let v_lr = self.r_sh * i_sh;
         let mut v = [0.0; 3];
         let mut sum = 0.0;
-        let mut pw = Powers { shunt: self.r_sh * i_sh * i_sh, ..Powers::default() };
+        let mut pw = Powers {
+            shunt: self.r_sh * i_sh * i_sh,
+            ..Powers::default()
+        };
         for k in 0..3 {
             if !m[k].conducts() {
                 continue;
@@ -191,7 +194,14 @@ impl Circuit {
         } else if n_switch == 1 {
             v[pinned] - e[pinned]
         } else {
-            self.floating_neutral(&Abc { u: e[0], v: e[1], w: e[2] }, v_lr)
+            self.floating_neutral(
+                &Abc {
+                    u: e[0],
+                    v: e[1],
+                    w: e[2],
+                },
+                v_lr,
+            )
         };
         for k in 0..3 {
             if !m[k].conducts() || (n_c < 2 && m[k].is_diode()) {
@@ -199,8 +209,16 @@ impl Circuit {
             }
         }
         Solution {
-            di: Abc { u: di[0], v: di[1], w: di[2] },
-            v_term: Abc { u: v[0], v: v[1], w: v[2] },
+            di: Abc {
+                u: di[0],
+                v: di[1],
+                w: di[2],
+            },
+            v_term: Abc {
+                u: v[0],
+                v: v[1],
+                w: v[2],
+            },
             v_n,
             i_shunt: i_sh,
             powers: pw,
@@ -215,7 +233,11 @@ impl Circuit {
         let emin = e.u.min(e.v).min(e.w);
         let lo = v_lr - self.vf - emin;
         let hi = self.vdd + self.vf - emax;
-        if lo > hi { 0.5 * (lo + hi) } else { centre.clamp(lo, hi) }
+        if lo > hi {
+            0.5 * (lo + hi)
+        } else {
+            centre.clamp(lo, hi)
+        }
     }
 
     /// How far an open terminal is outside the diode clamps [V]: > 0 above V_DD + V_f,
@@ -261,10 +283,17 @@ impl Circuit {
                 }
             }
             let Some((p, viol)) = worst else { break };
-            let diode = if viol < 0.0 { Conduction::DiodeLow } else { Conduction::DiodeHigh };
+            let diode = if viol < 0.0 {
+                Conduction::DiodeLow
+            } else {
+                Conduction::DiodeHigh
+            };
             let mut trial = modes;
             *trial.get_mut(p) = diode;
-            let conducting = Phase::ALL.iter().filter(|&&q| trial.get(q).conducts()).count();
+            let conducting = Phase::ALL
+                .iter()
+                .filter(|&&q| trial.get(q).conducts())
+                .count();
             if conducting < 2 {
                 // Only a diode pair can carry current: the rectifier case (|e spread| > V_DD + 2V_f).
                 let (hi_p, lo_p) = extreme_phases(e);
@@ -275,11 +304,13 @@ impl Circuit {
                 *trial.get_mut(lo_p) = Conduction::DiodeLow;
             }
             let s = self.solve(&trial, i, e);
-            let consistent = Phase::ALL.iter().all(|&q| match (modes.get(q), trial.get(q)) {
-                (Conduction::Open, Conduction::DiodeLow) => s.di.get(q) >= 0.0,
-                (Conduction::Open, Conduction::DiodeHigh) => s.di.get(q) <= 0.0,
-                _ => true,
-            });
+            let consistent = Phase::ALL
+                .iter()
+                .all(|&q| match (modes.get(q), trial.get(q)) {
+                    (Conduction::Open, Conduction::DiodeLow) => s.di.get(q) >= 0.0,
+                    (Conduction::Open, Conduction::DiodeHigh) => s.di.get(q) <= 0.0,
+                    _ => true,
+                });
             if !consistent {
                 break;
             }
@@ -314,7 +345,11 @@ mod tests {
     #[test]
     fn two_phase_conduction_splits_supply_symmetrically() {
         let c = circuit();
-        let modes = Abc { u: Conduction::SwitchHigh, v: Conduction::SwitchLow, w: Conduction::Open };
+        let modes = Abc {
+            u: Conduction::SwitchHigh,
+            v: Conduction::SwitchLow,
+            w: Conduction::Open,
+        };
         let s = c.solve(&modes, &Abc::splat(0.0), &Abc::splat(0.0));
         // i = 0: v_u = 12, v_v = 0, v_n = 6, di_u = 6/L.
         assert!((s.v_n - 6.0).abs() < 1e-12);
@@ -326,9 +361,21 @@ mod tests {
     #[test]
     fn power_balance_is_algebraic() {
         let c = circuit();
-        let modes = Abc { u: Conduction::DiodeLow, v: Conduction::SwitchLow, w: Conduction::SwitchHigh };
-        let i = Abc { u: 0.3, v: -0.5, w: 0.2 };
-        let e = Abc { u: 0.4, v: -0.1, w: -0.3 };
+        let modes = Abc {
+            u: Conduction::DiodeLow,
+            v: Conduction::SwitchLow,
+            w: Conduction::SwitchHigh,
+        };
+        let i = Abc {
+            u: 0.3,
+            v: -0.5,
+            w: 0.2,
+        };
+        let e = Abc {
+            u: 0.4,
+            v: -0.1,
+            w: -0.3,
+        };
         let s = c.solve(&modes, &i, &e);
         let l = MotorParams::default().phase_inductance_h();
         let magnetic = l * (i.u * s.di.u + i.v * s.di.v + i.w * s.di.w);
@@ -343,8 +390,16 @@ mod tests {
         let c = circuit();
         let mut g = Gates::OFF;
         g.low.v = true;
-        let i = Abc { u: 0.2, v: -0.2, w: 0.0 };
-        let e = Abc { u: 2.0, v: 2.0, w: -4.0 };
+        let i = Abc {
+            u: 0.2,
+            v: -0.2,
+            w: 0.0,
+        };
+        let e = Abc {
+            u: 2.0,
+            v: 2.0,
+            w: -4.0,
+        };
         let m = c.resolve(&g, &i, &e);
         assert_eq!(m.u, Conduction::DiodeLow);
         assert_eq!(m.w, Conduction::DiodeLow);

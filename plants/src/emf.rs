@@ -9,8 +9,38 @@ const SIN_120: f64 = 0.866_025_403_784_438_6;
 /// Evaluates the shape for the three phases at electrical angle `theta` [rad]
 /// (θu = θ, θv = θ − 120°, θw = θ + 120°).
 pub fn shape(kind: &BackEmfShape, theta: f64) -> Abc<f64> {
-    let (s, c) = theta.sin_cos();
-    let sin = Abc { u: s, v: -0.5 * s - SIN_120 * c, w: -0.5 * s + SIN_120 * c };
+    shape_with(kind, theta, theta.sin_cos())
+}
+
+/// sin and cos of `theta` from those of a nearby `base` angle by angle addition; the
+/// correction uses Taylor series, accurate to 1e-12 for |θ − base| ≤ 0.5 rad (else exact).
+pub fn sin_cos_near(theta: f64, base: (f64, f64, f64)) -> (f64, f64) {
+    let (b, sb, cb) = base;
+    let d = theta - b;
+    if d.abs() > 0.5 {
+        return theta.sin_cos();
+    }
+    let d2 = d * d;
+    let sd = d
+        * (1.0
+            - d2 / 6.0
+                * (1.0 - d2 / 20.0 * (1.0 - d2 / 42.0 * (1.0 - d2 / 72.0 * (1.0 - d2 / 110.0)))));
+    let cd = 1.0
+        - d2 / 2.0
+            * (1.0
+                - d2 / 12.0
+                    * (1.0
+                        - d2 / 30.0 * (1.0 - d2 / 56.0 * (1.0 - d2 / 90.0 * (1.0 - d2 / 132.0)))));
+    (sb * cd + cb * sd, cb * cd - sb * sd)
+}
+
+/// Like [`shape`], with sin θ and cos θ already known.
+pub fn shape_with(kind: &BackEmfShape, theta: f64, (s, c): (f64, f64)) -> Abc<f64> {
+    let sin = Abc {
+        u: s,
+        v: -0.5 * s - SIN_120 * c,
+        w: -0.5 * s + SIN_120 * c,
+    };
     match *kind {
         BackEmfShape::Sinusoidal => sin,
         BackEmfShape::Harmonic { third, fifth } => sin.map(|s| {
@@ -56,15 +86,34 @@ mod tests {
     }
 
     #[test]
+    fn angle_addition_matches_sin_cos() {
+        let base = (1.0f64, 1.0f64.sin(), 1.0f64.cos());
+        for k in -50..=50 {
+            let th = 1.0 + k as f64 * 0.01;
+            let (s, c) = sin_cos_near(th, base);
+            assert!(
+                (s - th.sin()).abs() < 1e-13 && (c - th.cos()).abs() < 1e-13,
+                "{th}"
+            );
+        }
+        assert_eq!(sin_cos_near(3.0, base), 3.0f64.sin_cos());
+    }
+
+    #[test]
     fn harmonic_identities_and_trapezoid_plateau() {
-        let h = BackEmfShape::Harmonic { third: 0.1, fifth: -0.05 };
+        let h = BackEmfShape::Harmonic {
+            third: 0.1,
+            fifth: -0.05,
+        };
         for k in 0..72 {
             let th = (k as f64 * 5.0).to_radians();
             let f = shape(&h, th).u;
             let want = th.sin() + 0.1 * (3.0 * th).sin() - 0.05 * (5.0 * th).sin();
             assert!((f - want).abs() < 1e-12);
         }
-        let t = BackEmfShape::Trapezoidal { flat_top_deg: 120.0 };
+        let t = BackEmfShape::Trapezoidal {
+            flat_top_deg: 120.0,
+        };
         assert!((shape(&t, 15f64.to_radians()).u - 0.5).abs() < 1e-12);
         assert!((shape(&t, 90f64.to_radians()).u - 1.0).abs() < 1e-12);
         assert!((shape(&t, 200f64.to_radians()).u + 0.666_666_666_666_666_6).abs() < 1e-9);

@@ -10,6 +10,6 @@ pub mod sensing;
 pub use bldc::{BldcPlant, EnergyLedger, Observation, PlantStats};
 pub use circuit::Conduction;
 pub use params::{
-    BackEmfShape, ComparatorParams, CurrentSenseParams, MotorParams, PlantParams, PowerStageParams, SensingParams,
-    SolverParams,
+    BackEmfShape, ComparatorParams, CurrentSenseParams, MotorParams, PlantParams, PowerStageParams,
+    SensingParams, SolverParams,
 };

@@ -77,7 +77,11 @@ impl MotorParams {
     /// Checks every rule; the error names the first field that breaks one.
     pub fn validate(&self) -> Result<(), ParamError> {
         if self.poles == 0 || self.poles % 2 != 0 || self.poles > 200 {
-            return Err(ParamError::new("motor.poles", self.poles as f64, "must be even and 2..=200"));
+            return Err(ParamError::new(
+                "motor.poles",
+                self.poles as f64,
+                "must be even and 2..=200",
+            ));
         }
         check_positive("motor.flux_linkage_wb", self.flux_linkage_wb)?;
         check_positive("motor.self_inductance_h", self.self_inductance_h)?;
@@ -95,8 +99,20 @@ impl MotorParams {
                 "must be 0..=179 electrical degrees",
             )?,
             BackEmfShape::Harmonic { third, fifth } => {
-                check_range("motor.back_emf.third", third, -1.0, 1.0, "must be -1..=1 per unit")?;
-                check_range("motor.back_emf.fifth", fifth, -1.0, 1.0, "must be -1..=1 per unit")?;
+                check_range(
+                    "motor.back_emf.third",
+                    third,
+                    -1.0,
+                    1.0,
+                    "must be -1..=1 per unit",
+                )?;
+                check_range(
+                    "motor.back_emf.fifth",
+                    fifth,
+                    -1.0,
+                    1.0,
+                    "must be -1..=1 per unit",
+                )?;
             }
         }
         Ok(())
@@ -154,12 +170,30 @@ impl Default for PowerStageParams {
 impl PowerStageParams {
     /// Checks every rule.
     pub fn validate(&self) -> Result<(), ParamError> {
-        check_range("power_stage.supply_v", self.supply_v, 1e-3, 1000.0, "must be > 0 and <= 1000 V")?;
-        check_non_negative("power_stage.switch_on_resistance_ohm", self.switch_on_resistance_ohm)?;
+        check_range(
+            "power_stage.supply_v",
+            self.supply_v,
+            1e-3,
+            1000.0,
+            "must be > 0 and <= 1000 V",
+        )?;
+        check_non_negative(
+            "power_stage.switch_on_resistance_ohm",
+            self.switch_on_resistance_ohm,
+        )?;
         check_non_negative("power_stage.diode_forward_v", self.diode_forward_v)?;
-        check_non_negative("power_stage.diode_resistance_ohm", self.diode_resistance_ohm)?;
+        check_non_negative(
+            "power_stage.diode_resistance_ohm",
+            self.diode_resistance_ohm,
+        )?;
         check_non_negative("power_stage.shunt_ohm", self.shunt_ohm)?;
-        check_range("power_stage.dead_time_s", self.dead_time_s, 0.0, 10e-6, "must be 0..=10e-6 s")?;
+        check_range(
+            "power_stage.dead_time_s",
+            self.dead_time_s,
+            0.0,
+            10e-6,
+            "must be 0..=10e-6 s",
+        )?;
         Ok(())
     }
 
@@ -206,12 +240,28 @@ impl CurrentSenseParams {
     pub fn validate(&self) -> Result<(), ParamError> {
         check_positive("sensing.current.amplifier_gain", self.amplifier_gain)?;
         check_positive("sensing.current.amplifier_max_v", self.amplifier_max_v)?;
-        check_range("sensing.current.filter_cutoff_hz", self.filter_cutoff_hz, 10.0, 10e6, "must be 10 Hz ..= 10 MHz")?;
+        check_range(
+            "sensing.current.filter_cutoff_hz",
+            self.filter_cutoff_hz,
+            10.0,
+            10e6,
+            "must be 10 Hz ..= 10 MHz",
+        )?;
         if !(1..=16).contains(&self.adc_bits) {
-            return Err(ParamError::new("sensing.current.adc_bits", self.adc_bits as f64, "must be 1..=16"));
+            return Err(ParamError::new(
+                "sensing.current.adc_bits",
+                self.adc_bits as f64,
+                "must be 1..=16",
+            ));
         }
         check_positive("sensing.current.adc_full_scale_v", self.adc_full_scale_v)?;
-        check_range("sensing.current.adc_conversion_s", self.adc_conversion_s, 0.1e-6, 1.0, "must be 0.1e-6 ..= 1 s")?;
+        check_range(
+            "sensing.current.adc_conversion_s",
+            self.adc_conversion_s,
+            0.1e-6,
+            1.0,
+            "must be 0.1e-6 ..= 1 s",
+        )?;
         Ok(())
     }
 
@@ -265,7 +315,11 @@ impl Default for ComparatorParams {
         ComparatorParams {
             phase_filter_tau_s: 1.0e-6,
             neutral_filter_tau_s: 1.05e-6,
-            offset_v: Abc { u: 2e-3, v: -1.5e-3, w: 1e-3 },
+            offset_v: Abc {
+                u: 2e-3,
+                v: -1.5e-3,
+                w: 1e-3,
+            },
             hysteresis_v: 10e-3,
             delay_s: 100e-9,
             noise_v: 1e-3,
@@ -280,19 +334,83 @@ impl Default for ComparatorParams {
 impl ComparatorParams {
     /// Checks every rule.
     pub fn validate(&self) -> Result<(), ParamError> {
-        check_range("sensing.comparator.phase_filter_tau_s", self.phase_filter_tau_s, 1e-9, 1e-3, "must be 1e-9 ..= 1e-3 s")?;
-        check_range("sensing.comparator.neutral_filter_tau_s", self.neutral_filter_tau_s, 1e-9, 1e-3, "must be 1e-9 ..= 1e-3 s")?;
+        check_range(
+            "sensing.comparator.phase_filter_tau_s",
+            self.phase_filter_tau_s,
+            1e-9,
+            1e-3,
+            "must be 1e-9 ..= 1e-3 s",
+        )?;
+        check_range(
+            "sensing.comparator.neutral_filter_tau_s",
+            self.neutral_filter_tau_s,
+            1e-9,
+            1e-3,
+            "must be 1e-9 ..= 1e-3 s",
+        )?;
         for p in drive_core::Phase::ALL {
-            let f = ["sensing.comparator.offset_v.u", "sensing.comparator.offset_v.v", "sensing.comparator.offset_v.w"];
-            check_range(f[p.index()], self.offset_v.get(p), -1.0, 1.0, "must be -1 ..= 1 V")?;
+            let f = [
+                "sensing.comparator.offset_v.u",
+                "sensing.comparator.offset_v.v",
+                "sensing.comparator.offset_v.w",
+            ];
+            check_range(
+                f[p.index()],
+                self.offset_v.get(p),
+                -1.0,
+                1.0,
+                "must be -1 ..= 1 V",
+            )?;
         }
-        check_range("sensing.comparator.hysteresis_v", self.hysteresis_v, 0.0, 1.0, "must be 0 ..= 1 V")?;
-        check_range("sensing.comparator.delay_s", self.delay_s, 0.0, 100e-6, "must be 0 ..= 100e-6 s")?;
-        check_range("sensing.comparator.noise_v", self.noise_v, 0.0, 1.0, "must be 0 ..= 1 V")?;
-        check_range("sensing.comparator.noise_interval_s", self.noise_interval_s, 20e-9, 1e-3, "must be 20e-9 ..= 1e-3 s")?;
-        check_range("sensing.comparator.ring_gain", self.ring_gain, 0.0, 1.0, "must be 0 ..= 1")?;
-        check_range("sensing.comparator.ring_frequency_hz", self.ring_frequency_hz, 1e3, 1e9, "must be 1e3 ..= 1e9 Hz")?;
-        check_range("sensing.comparator.ring_decay_s", self.ring_decay_s, 1e-9, 1e-3, "must be 1e-9 ..= 1e-3 s")?;
+        check_range(
+            "sensing.comparator.hysteresis_v",
+            self.hysteresis_v,
+            0.0,
+            1.0,
+            "must be 0 ..= 1 V",
+        )?;
+        check_range(
+            "sensing.comparator.delay_s",
+            self.delay_s,
+            0.0,
+            100e-6,
+            "must be 0 ..= 100e-6 s",
+        )?;
+        check_range(
+            "sensing.comparator.noise_v",
+            self.noise_v,
+            0.0,
+            1.0,
+            "must be 0 ..= 1 V",
+        )?;
+        check_range(
+            "sensing.comparator.noise_interval_s",
+            self.noise_interval_s,
+            20e-9,
+            1e-3,
+            "must be 20e-9 ..= 1e-3 s",
+        )?;
+        check_range(
+            "sensing.comparator.ring_gain",
+            self.ring_gain,
+            0.0,
+            1.0,
+            "must be 0 ..= 1",
+        )?;
+        check_range(
+            "sensing.comparator.ring_frequency_hz",
+            self.ring_frequency_hz,
+            1e3,
+            1e9,
+            "must be 1e3 ..= 1e9 Hz",
+        )?;
+        check_range(
+            "sensing.comparator.ring_decay_s",
+            self.ring_decay_s,
+            1e-9,
+            1e-3,
+            "must be 1e-9 ..= 1e-3 s",
+        )?;
         Ok(())
     }
 
@@ -321,7 +439,11 @@ pub struct SensingParams {
 
 impl Default for SensingParams {
     fn default() -> Self {
-        SensingParams { current: CurrentSenseParams::default(), comparator: ComparatorParams::default(), seed: 1 }
+        SensingParams {
+            current: CurrentSenseParams::default(),
+            comparator: ComparatorParams::default(),
+            seed: 1,
+        }
     }
 }
 
@@ -353,7 +475,13 @@ impl Default for SolverParams {
 impl SolverParams {
     /// Checks every rule.
     pub fn validate(&self) -> Result<(), ParamError> {
-        check_range("solver.max_step_s", self.max_step_s, 0.1e-6, 100e-6, "must be 0.1e-6 ..= 100e-6 s")
+        check_range(
+            "solver.max_step_s",
+            self.max_step_s,
+            0.1e-6,
+            100e-6,
+            "must be 0.1e-6 ..= 100e-6 s",
+        )
     }
 }
 

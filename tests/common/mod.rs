@@ -2,13 +2,24 @@
 #![allow(dead_code)]
 
 use bldc_drive::drive_core::pwm::HighSideChop;
-use bldc_drive::drive_core::{Abc, Carrier, Command, Controller, Engine, LegState, Pattern, Sensed, Ticks};
+use bldc_drive::drive_core::{
+    Abc, Carrier, Command, Controller, Engine, LegState, Pattern, Sensed, Ticks,
+};
 use bldc_drive::plants::{BldcPlant, PlantParams};
 
 /// An engine with the chip's high-side chopping and the default 12.5 kHz carrier.
-pub fn engine<C: Controller>(params: PlantParams, controller: C) -> Engine<BldcPlant, C, HighSideChop> {
+pub fn engine<C: Controller>(
+    params: PlantParams,
+    controller: C,
+) -> Engine<BldcPlant, C, HighSideChop> {
     let dead = params.power_stage.dead_time();
-    Engine::new(BldcPlant::new(params).expect("valid parameters"), controller, HighSideChop, Carrier::default(), dead)
+    Engine::new(
+        BldcPlant::new(params).expect("valid parameters"),
+        controller,
+        HighSideChop,
+        Carrier::default(),
+        dead,
+    )
 }
 
 /// `u`, `v`, `w` leg states from SPEC letters V / G / F.
@@ -19,12 +30,21 @@ pub fn pattern(s: &str) -> Pattern {
         _ => LegState::Float,
     };
     let c: Vec<char> = s.chars().collect();
-    Abc { u: leg(c[0]), v: leg(c[1]), w: leg(c[2]) }
+    Abc {
+        u: leg(c[0]),
+        v: leg(c[1]),
+        w: leg(c[2]),
+    }
 }
 
 /// A command holding `pattern` at `duty` counts, watching `watch`.
 pub fn hold(p: &str, duty: u32, watch: Abc<bool>) -> Command {
-    Command { pattern: pattern(p), duty, watch, wake_at: Ticks::NEVER }
+    Command {
+        pattern: pattern(p),
+        duty,
+        watch,
+        wake_at: Ticks::NEVER,
+    }
 }
 
 /// Holds one command until `at`, another afterwards.
@@ -39,7 +59,14 @@ impl Controller for Switch {
         Ticks(1)
     }
     fn tick(&mut self, now: Ticks, _sensed: &Sensed) -> Command {
-        if now < self.at { Command { wake_at: self.at, ..self.before } } else { self.after }
+        if now < self.at {
+            Command {
+                wake_at: self.at,
+                ..self.before
+            }
+        } else {
+            self.after
+        }
     }
 }
 
@@ -48,7 +75,11 @@ pub fn spec_emf(p: &PlantParams, theta_e: f64, omega_m: f64) -> Abc<f64> {
     let m = &p.motor;
     let k = m.flux_linkage_wb * (m.poles as f64 / 2.0) * omega_m;
     let third = 2.0 * std::f64::consts::PI / 3.0;
-    Abc { u: k * theta_e.sin(), v: k * (theta_e - third).sin(), w: k * (theta_e + third).sin() }
+    Abc {
+        u: k * theta_e.sin(),
+        v: k * (theta_e - third).sin(),
+        w: k * (theta_e + third).sin(),
+    }
 }
 
 pub fn rpm_to_rad_s(rpm: f64) -> f64 {

@@ -32,7 +32,13 @@ struct History {
 
 impl History {
     fn new(state: bool) -> Self {
-        History { ticks: [0; HISTORY], states: [false; HISTORY], len: 0, head: 0, base: state }
+        History {
+            ticks: [0; HISTORY],
+            states: [false; HISTORY],
+            len: 0,
+            head: 0,
+            base: state,
+        }
     }
 
     fn push(&mut self, tick: u64, state: bool) {
@@ -106,6 +112,8 @@ pub struct ComparatorBank {
     q_p: f64,
     q_n: f64,
     q_ring: (f64, f64),
+    /// The decay factors over one noise interval.
+    q_seg: (f64, f64),
     y: Abc<f64>,
     y_n: f64,
     out: Abc<bool>,
@@ -147,17 +155,32 @@ impl ComparatorBank {
                 let (sn, cs) = (std::f64::consts::TAU * p.ring_frequency_hz * TICK_S).sin_cos();
                 (d * cs, d * sn)
             },
+            q_seg: {
+                let n = p.noise_interval().0 as f64 * TICK_S;
+                (
+                    (-n / p.phase_filter_tau_s).exp(),
+                    (-n / p.neutral_filter_tau_s).exp(),
+                )
+            },
             y: *v_term,
             y_n: v_n,
             out,
-            hist: [History::new(out.u), History::new(out.v), History::new(out.w)],
+            hist: [
+                History::new(out.u),
+                History::new(out.v),
+                History::new(out.w),
+            ],
             ring: (0.0, 0.0),
             ring_t: 0.0,
             ring_mag: 0.0,
             toggles: 0,
             ticks_scanned: 0,
             scans: 0,
-            last: ([Foh::new(0.0, 0.0, 0.0, 0.0, 1.0); 3], Foh::new(0.0, 0.0, 0.0, 0.0, 1.0), 0.0),
+            last: (
+                [Foh::new(0.0, 0.0, 0.0, 0.0, 1.0); 3],
+                Foh::new(0.0, 0.0, 0.0, 0.0, 1.0),
+                0.0,
+            ),
         }
     }
 
@@ -182,7 +205,10 @@ impl ComparatorBank {
             return (0.0, 0.0);
         }
         let (s, c) = (self.ring_w * dt).sin_cos();
-        (d * (self.ring.0 * c - self.ring.1 * s), d * (self.ring.0 * s + self.ring.1 * c))
+        (
+            d * (self.ring.0 * c - self.ring.1 * s),
+            d * (self.ring.0 * s + self.ring.1 * c),
+        )
     }
 
     fn ring_envelope(&self, t: f64) -> f64 {
@@ -202,16 +228,29 @@ impl ComparatorBank {
         let fn_ = Foh::new(self.y_n, vn0, vn1, h, self.tau_n);
         let k_start = (t0 / TICK_S + 1e-6).floor() as u64 + 1;
         let k_end = (t1 / TICK_S + 1e-6).floor() as u64;
+        let w = [1.0, 1.0, (-h / self.tau_p).exp(), (-h / self.tau_n).exp()];
+        // Decay factors at the first and last tick of the step, shared by the channels.
+        let mut ticks: Option<[f64; 4]> = None;
         for x in Phase::ALL {
             let fx = Foh::new(self.y.get(x), v0.get(x), v1.get(x), h, self.tau_p);
-            let w = [1.0, 1.0, (-h / self.tau_p).exp(), (-h / self.tau_n).exp()];
-            if k_start <= k_end && self.may_toggle(x, &fx, &fn_, 0.0, h, w, -self.noise_a, self.noise_a, t0) {
-                self.scan(x, &fx, &fn_, t0, k_start, k_end);
+            if k_start <= k_end
+                && self.may_toggle(x, &fx, &fn_, 0.0, h, w, -self.noise_a, self.noise_a, t0)
+            {
+                let d = *ticks.get_or_insert_with(|| {
+                    let (ta, tb) = (k_start as f64 * TICK_S - t0, k_end as f64 * TICK_S - t0);
+                    [
+                        (-ta / self.tau_p).exp(),
+                        (-ta / self.tau_n).exp(),
+                        (-tb / self.tau_p).exp(),
+                        (-tb / self.tau_n).exp(),
+                    ]
+                });
+                self.scan(x, &fx, &fn_, t0, k_start, k_end, d);
             }
-            *self.y.get_mut(x) = fx.at(h);
+            *self.y.get_mut(x) = fx.at_decayed(h, w[2]);
             self.last.0[x.index()] = fx;
         }
-        self.y_n = fn_.at(h);
+        self.y_n = fn_.at_decayed(h, w[3]);
         self.last.1 = fn_;
         self.last.2 = t0;
     }
@@ -229,16 +268,27 @@ impl ComparatorBank {
         self.y_n = self.last.1.at(tau);
     }
 
-    fn scan(&mut self, x: Phase, fx: &Foh, fn_: &Foh, t0: f64, k_start: u64, k_end: u64) {
+    /// Walks the ticks `k_start..=k_end` of the step where a toggle is possible.
+    /// `d` = decay factors (e^{−τ/τp}, e^{−τ/τn}) at the first tick, then at the last.
+    #[allow(clippy::too_many_arguments)]
+    fn scan(
+        &mut self,
+        x: Phase,
+        fx: &Foh,
+        fn_: &Foh,
+        t0: f64,
+        k_start: u64,
+        k_end: u64,
+        d: [f64; 4],
+    ) {
         let ch = x.index();
         self.scans += 1;
         let mut k = k_start;
-        let ta0 = k as f64 * TICK_S - t0;
         let t_end = k_end as f64 * TICK_S - t0;
-        let w_end = [(-t_end / fx.tau).exp(), (-t_end / fn_.tau).exp()];
-        let seg_q = (self.q_p.powi(self.noise_n as i32), self.q_n.powi(self.noise_n as i32));
+        let w_end = [d[2], d[3]];
+        let seg_q = self.q_seg;
         // Decay factors at the current tick, carried from segment to segment.
-        let (mut dp, mut dn) = ((-ta0 / fx.tau).exp(), (-ta0 / fn_.tau).exp());
+        let (mut dp, mut dn) = (d[0], d[1]);
         let mut check_rest = true;
         while k <= k_end {
             let (ta, tb_rest) = (k as f64 * TICK_S - t0, t_end);
@@ -258,12 +308,16 @@ impl ComparatorBank {
             let (dpb, dnb) = if span + 1 == self.noise_n {
                 (dp * seg_q.0 / self.q_p, dn * seg_q.1 / self.q_n)
             } else {
-                (dp * self.q_p.powi(span as i32), dn * self.q_n.powi(span as i32))
+                (
+                    dp * self.q_p.powi(span as i32),
+                    dn * self.q_n.powi(span as i32),
+                )
             };
             let w = [dp, dn, dpb, dnb];
             if self.may_toggle(x, fx, fn_, ta, tb, w, n, n, t0) {
                 // Walk the ticks with per-tick factors instead of exp/sin at every tick.
                 self.ticks_scanned += span + 1;
+                check_rest = true; // after a busy segment, see whether the rest is quiet
                 let mut ep = fx.c * dp;
                 let mut en = fn_.c * dn;
                 let mut z = self.ring_at_phasor(t0 + ta);
@@ -281,7 +335,10 @@ impl ComparatorBank {
                     }
                     ep *= self.q_p;
                     en *= self.q_n;
-                    z = (z.0 * self.q_ring.0 - z.1 * self.q_ring.1, z.0 * self.q_ring.1 + z.1 * self.q_ring.0);
+                    z = (
+                        z.0 * self.q_ring.0 - z.1 * self.q_ring.1,
+                        z.0 * self.q_ring.1 + z.1 * self.q_ring.0,
+                    );
                 }
             }
             dp = dpb * self.q_p;
@@ -293,7 +350,18 @@ impl ComparatorBank {
     /// Whether the output may toggle somewhere in τ ∈ [ta, tb], given noise in [n_lo, n_hi].
     /// `w` holds the decay factors (e^{−ta/τp}, e^{−ta/τn}, e^{−tb/τp}, e^{−tb/τn}).
     #[allow(clippy::too_many_arguments)]
-    fn may_toggle(&self, x: Phase, fx: &Foh, fn_: &Foh, ta: f64, tb: f64, w: [f64; 4], n_lo: f64, n_hi: f64, t0: f64) -> bool {
+    fn may_toggle(
+        &self,
+        x: Phase,
+        fx: &Foh,
+        fn_: &Foh,
+        ta: f64,
+        tb: f64,
+        w: [f64; 4],
+        n_lo: f64,
+        n_hi: f64,
+        t0: f64,
+    ) -> bool {
         // s(τ) = α + β·τ + A·e^{−τ/τp} − B·e^{−τ/τn} + ring + noise − offset
         let alpha = fx.a - fn_.a - fx.b * fx.tau + fn_.b * fn_.tau;
         let beta = fx.b - fn_.b;

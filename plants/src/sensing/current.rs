@@ -53,7 +53,8 @@ impl CurrentSense {
     }
 
     fn quantise(&self, v: f64) -> u16 {
-        ((v / self.full_scale * self.codes).floor().max(0.0) as u64).min(self.max_code as u64) as u16
+        ((v / self.full_scale * self.codes).floor().max(0.0) as u64).min(self.max_code as u64)
+            as u16
     }
 
     /// Advances over [t0, t1] with the shunt current going linearly from `i0` to `i1`,
@@ -63,7 +64,13 @@ impl CurrentSense {
         if h <= 0.0 {
             return;
         }
-        let seg = Foh::new(self.y, self.amplifier_v(i0), self.amplifier_v(i1), h, self.tau);
+        let seg = Foh::new(
+            self.y,
+            self.amplifier_v(i0),
+            self.amplifier_v(i1),
+            h,
+            self.tau,
+        );
         let k_end = (t1 / TICK_S + 1e-6).floor() as u64;
         while self.next_sample <= k_end {
             let code = self.quantise(seg.at(self.next_sample as f64 * TICK_S - t0));
@@ -77,7 +84,11 @@ impl CurrentSense {
 
     /// The latest conversion readable at `at`.
     pub fn code_at(&self, at: Ticks) -> u16 {
-        if at.0 >= self.pending_at { self.pending } else { self.ready }
+        if at.0 >= self.pending_at {
+            self.pending
+        } else {
+            self.ready
+        }
     }
 
     /// Amperes per ADC code (for converting readings back).

@@ -18,7 +18,17 @@ impl Foh {
     /// The segment from filter state `y0` with input going from `u0` to `u1` over `h` seconds.
     pub fn new(y0: f64, u0: f64, u1: f64, h: f64, tau: f64) -> Self {
         let b = if h > 0.0 { (u1 - u0) / h } else { 0.0 };
-        Foh { a: u0, b, c: y0 - u0 + b * tau, tau }
+        Foh {
+            a: u0,
+            b,
+            c: y0 - u0 + b * tau,
+            tau,
+        }
+    }
+
+    /// Filter output at τ seconds into the segment, given `decay` = e^{−τ/tau}.
+    pub fn at_decayed(&self, t: f64, decay: f64) -> f64 {
+        self.a + self.b * (t - self.tau) + self.c * decay
     }
 
     /// Filter output at τ seconds into the segment.
