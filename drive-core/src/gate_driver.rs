@@ -63,10 +63,10 @@ impl GateDriver {
     pub fn release(&mut self, now: Ticks) -> bool {
         let mut eff = flatten(&self.effective);
         let mut changed = false;
-        for k in 0..6 {
-            if self.pending_on[k] <= now {
-                eff[k] = true;
-                self.pending_on[k] = Ticks::NEVER;
+        for (e, pending) in eff.iter_mut().zip(self.pending_on.iter_mut()) {
+            if *pending <= now {
+                *e = true;
+                *pending = Ticks::NEVER;
                 changed = true;
             }
         }
