@@ -9,7 +9,7 @@
 use crate::bridge::{Gates, ShootThrough};
 use crate::control::{Command, Controller};
 use crate::gate_driver::GateDriver;
-use crate::plant::{Plant, PlantStop};
+use crate::plant::{Plant, PlantStop, Watch};
 use crate::pwm::{Carrier, PwmScheme};
 use crate::time::Ticks;
 
@@ -132,7 +132,8 @@ impl<P: Plant, C: Controller, S: PwmScheme> Engine<P, C, S> {
             Ticks(self.now.0 + 1).next_edge(self.sample_period)
         };
         let target = end.min(pwm_edge).min(self.wake).min(release).min(sample);
-        match self.plant.advance(target, self.cmd.watch) {
+        let watch = Watch { channels: self.cmd.watch, clock: self.controller.clock() };
+        match self.plant.advance(target, watch) {
             PlantStop::Diode => Ok(StopReason::Diode),
             PlantStop::Sensing(at) => {
                 self.wake = self.wake.min(at.next_edge(self.controller.clock()));
@@ -229,11 +230,12 @@ mod tests {
         fn set_gates(&mut self, g: &Gates) {
             self.gate_log.push((self.t, *g));
         }
-        fn advance(&mut self, until: Ticks, watch: Abc<bool>) -> PlantStop {
-            if watch.w && self.t < self.change_at && until > self.change_at {
-                self.t = self.change_at;
+        fn advance(&mut self, until: Ticks, watch: Watch) -> PlantStop {
+            let edge = self.change_at.next_edge(watch.clock);
+            if watch.channels.w && self.t < edge && until >= edge {
+                self.t = edge;
                 self.level = true;
-                return PlantStop::Sensing(self.change_at);
+                return PlantStop::Sensing(edge);
             }
             self.t = until;
             PlantStop::Reached

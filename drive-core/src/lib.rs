@@ -17,6 +17,6 @@ pub use bridge::{Gates, LegState, Pattern, SIX_STEP_120, ShootThrough, floating_
 pub use control::{Command, Controller, Hold, OpenLoopSixStep, Sensed};
 pub use engine::{Engine, EngineError, StopReason};
 pub use error::ParamError;
-pub use plant::{Plant, PlantStop};
+pub use plant::{Plant, PlantStop, Watch};
 pub use pwm::{Carrier, DutyCounts, PwmScheme};
 pub use time::{TICK_S, Ticks, clocks};

@@ -13,8 +13,18 @@ pub enum PlantStop {
     /// A diode started or stopped conducting (at a time between ticks); integration
     /// restarted there with the new conduction state.
     Diode,
-    /// A watched comparator output changes at this instant (after propagation delay).
+    /// A watched comparator output changed (after propagation delay); this is the clock edge
+    /// at which the controller samples it, and the plant stopped there.
     Sensing(Ticks),
+}
+
+/// Which comparator outputs must wake the controller, and the clock that samples them.
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+pub struct Watch {
+    /// Channels whose changes matter.
+    pub channels: Abc<bool>,
+    /// Sampling clock period: a change is reported at the first clock edge at or after it.
+    pub clock: Ticks,
 }
 
 /// Continuous dynamics driven by six gate signals and a load torque, producing the
@@ -26,9 +36,10 @@ pub trait Plant {
     /// Applies the effective gate states from the current instant on.
     fn set_gates(&mut self, gates: &Gates);
 
-    /// Integrates up to the instant `until`, stopping early at a diode event or when one of
-    /// the `watch`ed comparator outputs changes.
-    fn advance(&mut self, until: Ticks, watch: Abc<bool>) -> PlantStop;
+    /// Integrates up to the instant `until`, stopping early at a diode event or at the clock
+    /// edge that samples a change of a watched comparator output. A change is reported once;
+    /// reporting it again is allowed (it only costs an extra controller tick).
+    fn advance(&mut self, until: Ticks, watch: Watch) -> PlantStop;
 
     /// What a controller sampling at instant `at` (not later than the plant time) sees.
     fn sensed(&self, at: Ticks) -> Sensed;

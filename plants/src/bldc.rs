@@ -14,7 +14,7 @@ use crate::circuit::{Circuit, Conduction, Solution};
 use crate::emf;
 use crate::params::{BackEmfShape, PlantParams};
 use crate::sensing::{ComparatorBank, CurrentSense};
-use drive_core::{Abc, Gates, ParamError, Phase, Plant, PlantStop, Sensed, TICK_S, Ticks};
+use drive_core::{Abc, Gates, ParamError, Phase, Plant, PlantStop, Sensed, TICK_S, Ticks, Watch};
 use nalgebra::SVector;
 use std::f64::consts::TAU;
 
@@ -111,6 +111,8 @@ pub struct BldcPlant {
     cmp: ComparatorBank,
     cur: CurrentSense,
     same_instant_events: u32,
+    /// Latest clock edge reported as a sensing stop: changes up to it have been sampled.
+    reported: Ticks,
     stats: PlantStats,
 }
 
@@ -150,6 +152,7 @@ impl BldcPlant {
             cmp,
             cur,
             same_instant_events: 0,
+            reported: Ticks::ZERO,
             stats: PlantStats::default(),
             params,
         })
@@ -333,8 +336,19 @@ impl BldcPlant {
             .solve(&self.modes, &Self::currents(&self.x), &e);
     }
 
-    fn tick_of(t: f64) -> Ticks {
-        Ticks((t / TICK_S + 1e-6).floor() as u64)
+    /// The first tick at or after `t`, and whether `t` is (within rounding) that tick.
+    fn ceil_tick(t: f64) -> (Ticks, bool) {
+        let k = t / TICK_S;
+        let r = k.round();
+        if (k - r).abs() < 1e-6 { (Ticks(r as u64), true) } else { (Ticks(k.ceil() as u64), false) }
+    }
+
+    /// The clock edge (not before `now`) at which the first watched change not yet reported
+    /// must be sampled.
+    fn pending_sample(&self, watch: Watch, now: Ticks) -> Option<Ticks> {
+        self.cmp
+            .next_visible_change(self.reported, watch.channels)
+            .map(|tv| tv.next_edge(watch.clock).max(now.next_edge(watch.clock)))
     }
 
     /// True signals now.
@@ -407,18 +421,23 @@ impl Plant for BldcPlant {
         self.cmp.excite(self.t, dv);
     }
 
-    fn advance(&mut self, until: Ticks, watch: Abc<bool>) -> PlantStop {
+    fn advance(&mut self, until: Ticks, watch: Watch) -> PlantStop {
         let t_end = until.seconds();
         loop {
             let t0 = self.t;
+            let (now, on_tick) = Self::ceil_tick(t0);
+            let pending = self.pending_sample(watch, now);
+            if on_tick && pending == Some(now) {
+                self.reported = now;
+                return PlantStop::Sensing(now);
+            }
             if t0 >= t_end - 1e-15 {
                 self.t = self.t.max(t_end);
                 return PlantStop::Reached;
             }
-            let tick0 = Self::tick_of(t0);
             let mut t1 = t_end.min(t0 + self.h_max);
-            if let Some(tv) = self.cmp.next_visible_change(tick0, watch) {
-                t1 = t1.min(tv.seconds());
+            if let Some(e) = pending {
+                t1 = t1.min(e.seconds());
             }
             let x0 = self.x;
             let mut x1 = self.rk4(&x0, t1 - t0);
@@ -434,29 +453,24 @@ impl Plant for BldcPlant {
                 }
             }
             let cur0 = self.cur;
-            self.cmp.update(
-                t0,
-                t1,
-                &self.start.v_term,
-                self.start.v_n,
-                &s1.v_term,
-                s1.v_n,
-            );
+            self.cmp.update(t0, t1, &self.start.v_term, self.start.v_n, &s1.v_term, s1.v_n);
             self.cur.update(t0, t1, self.start.i_shunt, s1.i_shunt);
-            if let Some(tv) = self.cmp.next_visible_change(tick0, watch) {
-                let tvs = tv.seconds();
-                if tvs < t1 - 1e-15 {
-                    // A watched output changes inside the step: cut the step there.
-                    self.cmp.truncate_at(tv);
-                    x1 = self.rk4(&x0, tvs - t0);
+            if let Some(e) = self.pending_sample(watch, now) {
+                let es = e.seconds();
+                if es < t1 - 1e-15 {
+                    // A watched output changed inside the step: cut the step at the clock
+                    // edge that samples it.
+                    self.cmp.truncate_at(e);
+                    x1 = self.rk4(&x0, es - t0);
                     s1 = self.solve_at(&x1);
                     self.cur = cur0;
-                    self.cur.update(t0, tvs, self.start.i_shunt, s1.i_shunt);
+                    self.cur.update(t0, es, self.start.i_shunt, s1.i_shunt);
                     self.stats.retries += 1;
-                    self.commit(x1, tvs);
+                    self.commit(x1, es);
                     self.start = s1;
                     self.same_instant_events = 0;
-                    return PlantStop::Sensing(tv);
+                    self.reported = e;
+                    return PlantStop::Sensing(e);
                 }
             }
             self.commit(x1, t1);
@@ -474,22 +488,13 @@ impl Plant for BldcPlant {
                         self.x[q.index()] += residual;
                     }
                 }
-                self.same_instant_events = if t1 - t0 < 1e-12 {
-                    self.same_instant_events + 1
-                } else {
-                    0
-                };
+                self.same_instant_events = if t1 - t0 < 1e-12 { self.same_instant_events + 1 } else { 0 };
                 self.refresh_start();
                 self.stats.diode_events += 1;
                 return PlantStop::Diode;
             }
             self.same_instant_events = 0;
             self.start = s1;
-            if let Some(tv) = self.cmp.next_visible_change(tick0, watch) {
-                if (tv.seconds() - t1).abs() < 1e-15 {
-                    return PlantStop::Sensing(tv);
-                }
-            }
         }
     }
 
