@@ -228,3 +228,93 @@ fn opened_phase_freewheels_through_low_diode_then_floats() {
 fn opened_phase_freewheels_through_high_diode_then_floats() {
     open_phase("GVF", "FVG", Conduction::DiodeHigh);
 }
+
+#[test]
+fn trapezoidal_back_emf_appears_on_the_floating_terminals() {
+    let mut params = PlantParams::default();
+    params.motor.back_emf = bldc_drive::plants::BackEmfShape::Trapezoidal {
+        flat_top_deg: 120.0,
+    };
+    let mut eng = engine(params.clone(), Hold(Command::OFF));
+    eng.plant.set_rotor(0.0, 2000.0, true);
+    eng.set_sample_period(Ticks(200));
+    let k = params.motor.flux_linkage_wb * 6.0 * rpm_to_rad_s(2000.0);
+    // Independent trapezoid: ramps of 30° through the crossings, flat top 120°.
+    let trap = |th: f64| {
+        let d = th.rem_euclid(360.0);
+        let (x, s) = if d < 180.0 {
+            (d, 1.0)
+        } else {
+            (d - 180.0, -1.0)
+        };
+        s * (x.min(180.0 - x) / 30.0).min(1.0)
+    };
+    let mut n = 0;
+    eng.run_until(Ticks::from_seconds(1e-3).unwrap(), |e, _| {
+        let o = e.plant.observe();
+        let th = o.theta_e.to_degrees();
+        for (vt, want) in [
+            (o.v_term.u, trap(th)),
+            (o.v_term.v, trap(th - 120.0)),
+            (o.v_term.w, trap(th + 120.0)),
+        ] {
+            assert!((vt - o.v_n - k * want).abs() < 1e-9, "θ = {th}°");
+        }
+        n += 1;
+    })
+    .unwrap();
+    assert!(n > 200);
+}
+
+#[test]
+fn adc_reads_the_shunt_current_through_the_spec_scaling() {
+    // Locked rotor, DC u→v: choose V_DD so that the loop current is 0.3 A.
+    let mut params = PlantParams::default();
+    let m = &params.motor;
+    let ps = &params.power_stage;
+    let r_loop = 2.0 * m.resistance_ohm + 2.0 * ps.switch_on_resistance_ohm + ps.shunt_ohm;
+    params.power_stage.supply_v = 0.3 * r_loop;
+    let mut eng = engine(params, Hold(hold("VGF", 2000, Abc::splat(false))));
+    eng.plant.set_rotor(0.0, 0.0, true);
+    let end = Ticks::from_seconds(10e-3).unwrap(); // 10 ms ≫ τ = 0.4 ms
+    eng.run_until(end, |_, _| {}).unwrap();
+    // 0.3 A · 0.25 Ω · 80 = 6 V of 10 V full scale on 12 bits.
+    let want = (0.3f64 * 0.25 * 80.0 / 10.0 * 4096.0).floor() as u16;
+    let code = eng.plant.sensed(end).current_code;
+    assert!(code.abs_diff(want) <= 1, "ADC {code} vs {want}");
+}
+
+#[test]
+fn dead_time_makes_the_current_freewheel_through_a_diode() {
+    use bldc_drive::drive_core::pwm::Complementary;
+    use bldc_drive::drive_core::{Carrier, Engine};
+    use bldc_drive::plants::BldcPlant;
+    let mut params = PlantParams::default();
+    params.power_stage.dead_time_s = 1e-6;
+    let dead = params.power_stage.dead_time();
+    assert_eq!(dead, Ticks(50));
+    let plant = BldcPlant::new(params.clone()).unwrap();
+    let ctl = Hold(hold("VGF", 1000, Abc::splat(false)));
+    let mut eng = Engine::new(plant, ctl, Complementary, Carrier::default(), dead);
+    eng.plant.set_rotor(0.0, 0.0, true);
+    eng.set_sample_period(Ticks(10));
+    let mut in_gap = 0;
+    let mut dead_stops = 0;
+    eng.run_until(Ticks::from_seconds(2e-3).unwrap(), |e, r| {
+        dead_stops += usize::from(r == StopReason::DeadTime);
+        let g = e.gates();
+        let o = e.plant.observe();
+        if !g.high.u && !g.low.u && o.i.u > 1e-3 {
+            // Both switches of leg u off while current flows into the motor: low diode.
+            assert_eq!(o.conduction.u, Conduction::DiodeLow);
+            assert!((o.v_term.u - (o.i_shunt * 0.25 - 0.7 - 0.05 * o.i.u)).abs() < 1e-9);
+            in_gap += 1;
+        }
+    })
+    .unwrap();
+    assert!(
+        dead_stops > 40,
+        "turn-ons delayed by the dead time: {dead_stops}"
+    );
+    assert!(in_gap > 100, "samples inside dead-time gaps: {in_gap}");
+}

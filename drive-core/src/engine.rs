@@ -132,7 +132,10 @@ impl<P: Plant, C: Controller, S: PwmScheme> Engine<P, C, S> {
             Ticks(self.now.0 + 1).next_edge(self.sample_period)
         };
         let target = end.min(pwm_edge).min(self.wake).min(release).min(sample);
-        let watch = Watch { channels: self.cmd.watch, clock: self.controller.clock() };
+        let watch = Watch {
+            channels: self.cmd.watch,
+            clock: self.controller.clock(),
+        };
         match self.plant.advance(target, watch) {
             PlantStop::Diode => Ok(StopReason::Diode),
             PlantStop::Sensing(at) => {

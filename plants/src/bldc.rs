@@ -340,7 +340,11 @@ impl BldcPlant {
     fn ceil_tick(t: f64) -> (Ticks, bool) {
         let k = t / TICK_S;
         let r = k.round();
-        if (k - r).abs() < 1e-6 { (Ticks(r as u64), true) } else { (Ticks(k.ceil() as u64), false) }
+        if (k - r).abs() < 1e-6 {
+            (Ticks(r as u64), true)
+        } else {
+            (Ticks(k.ceil() as u64), false)
+        }
     }
 
     /// The clock edge (not before `now`) at which the first watched change not yet reported
@@ -453,7 +457,14 @@ impl Plant for BldcPlant {
                 }
             }
             let cur0 = self.cur;
-            self.cmp.update(t0, t1, &self.start.v_term, self.start.v_n, &s1.v_term, s1.v_n);
+            self.cmp.update(
+                t0,
+                t1,
+                &self.start.v_term,
+                self.start.v_n,
+                &s1.v_term,
+                s1.v_n,
+            );
             self.cur.update(t0, t1, self.start.i_shunt, s1.i_shunt);
             if let Some(e) = self.pending_sample(watch, now) {
                 let es = e.seconds();
@@ -488,7 +499,11 @@ impl Plant for BldcPlant {
                         self.x[q.index()] += residual;
                     }
                 }
-                self.same_instant_events = if t1 - t0 < 1e-12 { self.same_instant_events + 1 } else { 0 };
+                self.same_instant_events = if t1 - t0 < 1e-12 {
+                    self.same_instant_events + 1
+                } else {
+                    0
+                };
                 self.refresh_start();
                 self.stats.diode_events += 1;
                 return PlantStop::Diode;
