@@ -10,7 +10,7 @@
 //! diode's current reaching zero (the current is then set to exactly zero and the phase
 //! floats), and an open terminal reaching a diode clamp (the diode starts conducting).
 
-use crate::circuit::{Circuit, Conduction, Solution};
+use crate::circuit::{Circuit, Conduction, Linearised, Solution};
 use crate::emf;
 use crate::params::{BackEmfShape, PlantParams};
 use crate::sensing::{ComparatorBank, CurrentSense};
@@ -111,6 +111,9 @@ pub struct BldcPlant {
     cmp: ComparatorBank,
     cur: CurrentSense,
     same_instant_events: u32,
+    /// The network's affine form for the present conduction state, and a cache of all 125.
+    lin: Linearised,
+    lin_cache: Vec<Option<Linearised>>,
     /// Latest clock edge reported as a sensing stop: changes up to it have been sampled.
     reported: Ticks,
     stats: PlantStats,
@@ -152,6 +155,8 @@ impl BldcPlant {
             cmp,
             cur,
             same_instant_events: 0,
+            lin: circuit.linearise(&modes),
+            lin_cache: vec![None; 125],
             reported: Ticks::ZERO,
             stats: PlantStats::default(),
             params,
@@ -226,21 +231,20 @@ impl BldcPlant {
     fn deriv(&self, x: &State, base: (f64, f64, f64)) -> State {
         let f = emf::shape_with(&self.shape, x[THETA], emf::sin_cos_near(x[THETA], base));
         let k = self.lambda * self.pp * x[OMEGA];
-        let e = f.map(|v| k * v);
-        let i = Self::currents(x);
-        let s = self.circuit.solve(&self.modes, &i, &e);
+        let e = [k * f.u, k * f.v, k * f.w];
+        let i = [x[0], x[1], x[2]];
+        let (di, p) = self.lin.eval(&i, &e);
         let wm = x[OMEGA];
-        let te = self.pp * self.lambda * (i.u * f.u + i.v * f.v + i.w * f.w);
+        let te = self.pp * self.lambda * (i[0] * f.u + i[1] * f.v + i[2] * f.w);
         let dw = if self.speed_lock {
             0.0
         } else {
             (te - self.friction * wm - self.load_nm) / self.inertia
         };
-        let p = s.powers;
         State::from([
-            s.di.u,
-            s.di.v,
-            s.di.w,
+            di[0],
+            di[1],
+            di[2],
             dw,
             self.pp * wm,
             p.supply,
@@ -328,9 +332,17 @@ impl BldcPlant {
 
     fn refresh_start(&mut self) {
         let (_, e) = self.emf_of(&self.x);
-        self.modes = self
-            .circuit
-            .resolve(&self.gates, &Self::currents(&self.x), &e);
+        self.modes = self.circuit.resolve(&self.gates, &Self::currents(&self.x), &e);
+        let m = self.modes.map(|c| c as usize);
+        let idx = m.u * 25 + m.v * 5 + m.w;
+        self.lin = match self.lin_cache[idx] {
+            Some(l) => l,
+            None => {
+                let l = self.circuit.linearise(&self.modes);
+                self.lin_cache[idx] = Some(l);
+                l
+            }
+        };
         self.start = self
             .circuit
             .solve(&self.modes, &Self::currents(&self.x), &e);

@@ -320,6 +320,77 @@ impl Circuit {
     }
 }
 
+/// The network for one conduction state as an affine map (the topology is constant between
+/// events): di/dt = c + K·i + Q·e, with the loss weights of each leg. Built from
+/// [`Circuit::solve`] on basis vectors, so it cannot drift from it.
+#[derive(Copy, Clone, Debug, Default, PartialEq)]
+pub struct Linearised {
+    c: [f64; 3],
+    k: [[f64; 3]; 3],
+    q: [[f64; 3]; 3],
+    supply: [f64; 3],
+    switch_r: [f64; 3],
+    diode_r: [f64; 3],
+    diode_vf: [f64; 3],
+    low: [f64; 3],
+    r: f64,
+    r_sh: f64,
+}
+
+impl Linearised {
+    /// di/dt and the powers for currents `i` and back-EMFs `e`.
+    pub fn eval(&self, i: &[f64; 3], e: &[f64; 3]) -> ([f64; 3], Powers) {
+        let mut di = self.c;
+        for (r, d) in di.iter_mut().enumerate() {
+            for j in 0..3 {
+                *d += self.k[r][j] * i[j] + self.q[r][j] * e[j];
+            }
+        }
+        let mut p = Powers::default();
+        let mut i_sh = 0.0;
+        for j in 0..3 {
+            let (x, x2) = (i[j], i[j] * i[j]);
+            p.supply += self.supply[j] * x;
+            p.copper += self.r * x2;
+            p.switch += self.switch_r[j] * x2;
+            p.diode += self.diode_vf[j] * x.abs() + self.diode_r[j] * x2;
+            p.airgap += e[j] * x;
+            i_sh -= self.low[j] * x;
+        }
+        p.shunt = self.r_sh * i_sh * i_sh;
+        (di, p)
+    }
+}
+
+impl Circuit {
+    /// The affine form of [`Circuit::solve`] for fixed `modes`.
+    pub fn linearise(&self, modes: &Abc<Conduction>) -> Linearised {
+        let zero = Abc::splat(0.0);
+        let unit = |k: usize| Abc::from_fn(|p| if p.index() == k { 1.0 } else { 0.0 });
+        let c = self.solve(modes, &zero, &zero).di.to_array();
+        let mut lin = Linearised { c, r: self.r, r_sh: self.r_sh, ..Linearised::default() };
+        for j in 0..3 {
+            let di_i = self.solve(modes, &unit(j), &zero).di.to_array();
+            let di_e = self.solve(modes, &zero, &unit(j)).di.to_array();
+            for r in 0..3 {
+                lin.k[r][j] = di_i[r] - c[r];
+                lin.q[r][j] = di_e[r] - c[r];
+            }
+        }
+        for (j, m) in modes.to_array().into_iter().enumerate() {
+            lin.supply[j] = if m.is_high() { self.vdd } else { 0.0 };
+            lin.low[j] = if m.is_low() { 1.0 } else { 0.0 };
+            if m.is_diode() {
+                lin.diode_r[j] = self.r_d;
+                lin.diode_vf[j] = self.vf;
+            } else if m.conducts() {
+                lin.switch_r[j] = self.r_on;
+            }
+        }
+        lin
+    }
+}
+
 fn extreme_phases(e: &Abc<f64>) -> (Phase, Phase) {
     let mut hi = Phase::U;
     let mut lo = Phase::U;
@@ -382,6 +453,38 @@ mod tests {
         let p = s.powers;
         let rhs = p.copper + p.switch + p.diode + p.shunt + p.airgap + magnetic;
         assert!((p.supply - rhs).abs() < 1e-12, "{} vs {}", p.supply, rhs);
+    }
+
+    #[test]
+    fn linearised_form_matches_the_full_solution() {
+        let c = circuit();
+        let all = [
+            Conduction::SwitchHigh,
+            Conduction::SwitchLow,
+            Conduction::DiodeHigh,
+            Conduction::DiodeLow,
+            Conduction::Open,
+        ];
+        for a in all {
+            for b in all {
+                for d in all {
+                    let modes = Abc { u: a, v: b, w: d };
+                    let lin = c.linearise(&modes);
+                    let i = Abc { u: 0.31, v: -0.17, w: -0.14 }.map(|x| x);
+                    let i = Abc::from_fn(|p| if modes.get(p).conducts() { i.get(p) } else { 0.0 });
+                    let e = Abc { u: 0.9, v: -0.2, w: -0.7 };
+                    let full = c.solve(&modes, &i, &e);
+                    let (di, p) = lin.eval(&i.to_array(), &e.to_array());
+                    for k in 0..3 {
+                        assert!((di[k] - full.di.to_array()[k]).abs() < 1e-6, "{modes:?}");
+                    }
+                    let q = full.powers;
+                    for (x, y) in [(p.supply, q.supply), (p.copper, q.copper), (p.switch, q.switch), (p.diode, q.diode), (p.shunt, q.shunt), (p.airgap, q.airgap)] {
+                        assert!((x - y).abs() < 1e-12, "{modes:?}: {p:?} vs {q:?}");
+                    }
+                }
+            }
+        }
     }
 
     #[test]
