@@ -87,6 +87,27 @@ pub struct PlantStats {
     pub retries: u64,
 }
 
+/// Cubic Hermite interpolation of one RK4 step (states and derivatives at both ends).
+struct Dense {
+    x0: State,
+    f0: State,
+    x1: State,
+    f1: State,
+    h: f64,
+}
+
+impl Dense {
+    /// The state at fraction `s` ∈ [0, 1] of the step.
+    fn at(&self, s: f64) -> State {
+        let (s2, s3) = (s * s, s * s * s);
+        let h00 = 2.0 * s3 - 3.0 * s2 + 1.0;
+        let h10 = (s3 - 2.0 * s2 + s) * self.h;
+        let h01 = 3.0 * s2 - 2.0 * s3;
+        let h11 = (s3 - s2) * self.h;
+        self.x0 * h00 + self.f0 * h10 + self.x1 * h01 + self.f1 * h11
+    }
+}
+
 /// Motor + bridge + sensing. Build with [`BldcPlant::new`].
 #[derive(Clone, Debug)]
 pub struct BldcPlant {
@@ -259,6 +280,11 @@ impl BldcPlant {
     }
 
     fn rk4(&self, x: &State, h: f64) -> State {
+        self.rk4_k1(x, h).0
+    }
+
+    /// One RK4 step; also returns the derivative at the start (for dense output).
+    fn rk4_k1(&self, x: &State, h: f64) -> (State, State) {
         // One sin/cos per step; the stages' angles are reached by angle addition.
         let (s, c) = x[THETA].sin_cos();
         let base = (x[THETA], s, c);
@@ -266,7 +292,12 @@ impl BldcPlant {
         let k2 = self.deriv(&(x + k1 * (0.5 * h)), base);
         let k3 = self.deriv(&(x + k2 * (0.5 * h)), base);
         let k4 = self.deriv(&(x + k3 * h), base);
-        x + (k1 + (k2 + k3) * 2.0 + k4) * (h / 6.0)
+        (x + (k1 + (k2 + k3) * 2.0 + k4) * (h / 6.0), k1)
+    }
+
+    fn deriv_at(&self, x: &State) -> State {
+        let (s, c) = x[THETA].sin_cos();
+        self.deriv(x, (x[THETA], s, c))
     }
 
     /// Per-phase event functions: ≥ 0 while nothing happens, < 0 once a diode current has
@@ -288,6 +319,24 @@ impl BldcPlant {
             let g = self.event_margin(x, s, p);
             g < 0.0 || (g == 0.0 && self.modes.get(p).is_diode())
         })
+    }
+
+    /// Where a freewheeling diode's current crosses zero inside a step, from the step's
+    /// cubic Hermite dense output (fourth-order accurate, like the step itself). Returns the
+    /// fraction of the step and the interpolated state there.
+    fn locate_diode(&mut self, d: &Dense, p: Phase) -> (f64, State) {
+        let k = p.index();
+        let sign = if self.modes.get(p) == Conduction::DiodeLow { 1.0 } else { -1.0 };
+        let g = |s: f64| sign * d.at(s)[k];
+        let (mut a, mut b) = (0.0, 1.0);
+        if g(0.0) <= 0.0 {
+            return (0.0, d.x0);
+        }
+        for _ in 0..48 {
+            let m = 0.5 * (a + b);
+            if g(m) > 0.0 { a = m } else { b = m }
+        }
+        (b, d.at(b))
     }
 
     /// Earliest h in (0, h_full] where phase p's event function reaches zero.
@@ -456,16 +505,26 @@ impl Plant for BldcPlant {
                 t1 = t1.min(e.seconds());
             }
             let x0 = self.x;
-            let mut x1 = self.rk4(&x0, t1 - t0);
+            let (mut x1, f0) = self.rk4_k1(&x0, t1 - t0);
             let mut s1 = self.solve_at(&x1);
             let mut event = None;
+            let mut dense = None;
             if self.same_instant_events < 8 {
                 if let Some(p) = self.triggered(&x1, &s1) {
-                    let h = self.locate(&x0, t1 - t0, p);
-                    x1 = self.rk4(&x0, h);
+                    if self.modes.get(p).is_diode() {
+                        let d = Dense { x0, f0, x1, f1: self.deriv_at(&x1), h: t1 - t0 };
+                        let (frac, x) = self.locate_diode(&d, p);
+                        x1 = x;
+                        t1 = t0 + frac * d.h;
+                    } else {
+                        let h = self.locate(&x0, t1 - t0, p);
+                        x1 = self.rk4(&x0, h);
+                        t1 = t0 + h;
+                    }
                     s1 = self.solve_at(&x1);
-                    t1 = t0 + h;
                     event = Some(p);
+                } else {
+                    dense = Some((f0, t1 - t0));
                 }
             }
             let cur0 = self.cur;
@@ -484,7 +543,10 @@ impl Plant for BldcPlant {
                     // A watched output changed inside the step: cut the step at the clock
                     // edge that samples it.
                     self.cmp.truncate_at(e);
-                    x1 = self.rk4(&x0, es - t0);
+                    x1 = match dense {
+                        Some((f0, h)) => Dense { x0, f0, x1, f1: self.deriv_at(&x1), h }.at((es - t0) / h),
+                        None => self.rk4(&x0, es - t0),
+                    };
                     s1 = self.solve_at(&x1);
                     self.cur = cur0;
                     self.cur.update(t0, es, self.start.i_shunt, s1.i_shunt);
