@@ -326,7 +326,11 @@ impl BldcPlant {
     /// fraction of the step and the interpolated state there.
     fn locate_diode(&mut self, d: &Dense, p: Phase) -> (f64, State) {
         let k = p.index();
-        let sign = if self.modes.get(p) == Conduction::DiodeLow { 1.0 } else { -1.0 };
+        let sign = if self.modes.get(p) == Conduction::DiodeLow {
+            1.0
+        } else {
+            -1.0
+        };
         let g = |s: f64| sign * d.at(s)[k];
         let (mut a, mut b) = (0.0, 1.0);
         if g(0.0) <= 0.0 {
@@ -381,7 +385,9 @@ impl BldcPlant {
 
     fn refresh_start(&mut self) {
         let (_, e) = self.emf_of(&self.x);
-        self.modes = self.circuit.resolve(&self.gates, &Self::currents(&self.x), &e);
+        self.modes = self
+            .circuit
+            .resolve(&self.gates, &Self::currents(&self.x), &e);
         let m = self.modes.map(|c| c as usize);
         let idx = m.u * 25 + m.v * 5 + m.w;
         self.lin = match self.lin_cache[idx] {
@@ -512,7 +518,13 @@ impl Plant for BldcPlant {
             if self.same_instant_events < 8 {
                 if let Some(p) = self.triggered(&x1, &s1) {
                     if self.modes.get(p).is_diode() {
-                        let d = Dense { x0, f0, x1, f1: self.deriv_at(&x1), h: t1 - t0 };
+                        let d = Dense {
+                            x0,
+                            f0,
+                            x1,
+                            f1: self.deriv_at(&x1),
+                            h: t1 - t0,
+                        };
                         let (frac, x) = self.locate_diode(&d, p);
                         x1 = x;
                         t1 = t0 + frac * d.h;
@@ -544,7 +556,14 @@ impl Plant for BldcPlant {
                     // edge that samples it.
                     self.cmp.truncate_at(e);
                     x1 = match dense {
-                        Some((f0, h)) => Dense { x0, f0, x1, f1: self.deriv_at(&x1), h }.at((es - t0) / h),
+                        Some((f0, h)) => Dense {
+                            x0,
+                            f0,
+                            x1,
+                            f1: self.deriv_at(&x1),
+                            h,
+                        }
+                        .at((es - t0) / h),
                         None => self.rk4(&x0, es - t0),
                     };
                     s1 = self.solve_at(&x1);

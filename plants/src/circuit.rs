@@ -368,7 +368,12 @@ impl Circuit {
         let zero = Abc::splat(0.0);
         let unit = |k: usize| Abc::from_fn(|p| if p.index() == k { 1.0 } else { 0.0 });
         let c = self.solve(modes, &zero, &zero).di.to_array();
-        let mut lin = Linearised { c, r: self.r, r_sh: self.r_sh, ..Linearised::default() };
+        let mut lin = Linearised {
+            c,
+            r: self.r,
+            r_sh: self.r_sh,
+            ..Linearised::default()
+        };
         for j in 0..3 {
             let di_i = self.solve(modes, &unit(j), &zero).di.to_array();
             let di_e = self.solve(modes, &zero, &unit(j)).di.to_array();
@@ -470,16 +475,38 @@ mod tests {
                 for d in all {
                     let modes = Abc { u: a, v: b, w: d };
                     let lin = c.linearise(&modes);
-                    let i = Abc { u: 0.31, v: -0.17, w: -0.14 }.map(|x| x);
-                    let i = Abc::from_fn(|p| if modes.get(p).conducts() { i.get(p) } else { 0.0 });
-                    let e = Abc { u: 0.9, v: -0.2, w: -0.7 };
+                    let i = Abc {
+                        u: 0.31,
+                        v: -0.17,
+                        w: -0.14,
+                    }
+                    .map(|x| x);
+                    let i = Abc::from_fn(|p| {
+                        if modes.get(p).conducts() {
+                            i.get(p)
+                        } else {
+                            0.0
+                        }
+                    });
+                    let e = Abc {
+                        u: 0.9,
+                        v: -0.2,
+                        w: -0.7,
+                    };
                     let full = c.solve(&modes, &i, &e);
                     let (di, p) = lin.eval(&i.to_array(), &e.to_array());
                     for k in 0..3 {
                         assert!((di[k] - full.di.to_array()[k]).abs() < 1e-6, "{modes:?}");
                     }
                     let q = full.powers;
-                    for (x, y) in [(p.supply, q.supply), (p.copper, q.copper), (p.switch, q.switch), (p.diode, q.diode), (p.shunt, q.shunt), (p.airgap, q.airgap)] {
+                    for (x, y) in [
+                        (p.supply, q.supply),
+                        (p.copper, q.copper),
+                        (p.switch, q.switch),
+                        (p.diode, q.diode),
+                        (p.shunt, q.shunt),
+                        (p.airgap, q.airgap),
+                    ] {
                         assert!((x - y).abs() < 1e-12, "{modes:?}: {p:?} vs {q:?}");
                     }
                 }

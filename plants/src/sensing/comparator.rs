@@ -290,15 +290,21 @@ impl ComparatorBank {
         // Decay factors at the current tick, carried from segment to segment.
         let (mut dp, mut dn) = (d[0], d[1]);
         let mut check_rest = true;
+        let mut rest = (0.0, 0.0);
+        let mut quiet_segments = 0u32;
         while k <= k_end {
-            let (ta, tb_rest) = (k as f64 * TICK_S - t0, t_end);
-            if check_rest {
-                // Nothing can happen in the rest of the step: stop scanning.
+            let ta = k as f64 * TICK_S - t0;
+            if check_rest || quiet_segments >= 16 {
+                // Bound the rest of the step (tightens as transients decay); stop if quiet.
                 let w = [dp, dn, w_end[0], w_end[1]];
-                if !self.may_toggle(x, fx, fn_, ta, tb_rest, w, -self.noise_a, self.noise_a, t0) {
-                    return;
+                match self.range(x, fx, fn_, ta, t_end, w, t0, -self.noise_a, self.noise_a) {
+                    Some(r) if self.can_toggle(x, r.0, r.1, -self.noise_a, self.noise_a) => {
+                        rest = r
+                    }
+                    _ => return,
                 }
                 check_rest = false;
+                quiet_segments = 0;
             }
             let m = k / self.noise_n;
             let seg_end = ((m + 1) * self.noise_n - 1).min(k_end);
@@ -314,7 +320,11 @@ impl ComparatorBank {
                 )
             };
             let w = [dp, dn, dpb, dnb];
-            if self.may_toggle(x, fx, fn_, ta, tb, w, n, n, t0) {
+            quiet_segments += 1;
+            // Cheap test against the rest-of-step range before bounding this segment.
+            if self.can_toggle(x, rest.0, rest.1, n, n)
+                && self.may_toggle(x, fx, fn_, ta, tb, w, n, n, t0)
+            {
                 // Walk the ticks with per-tick factors instead of exp/sin at every tick.
                 self.ticks_scanned += span + 1;
                 check_rest = true; // after a busy segment, see whether the rest is quiet
@@ -362,21 +372,55 @@ impl ComparatorBank {
         n_hi: f64,
         t0: f64,
     ) -> bool {
-        // s(τ) = α + β·τ + A·e^{−τ/τp} − B·e^{−τ/τn} + ring + noise − offset
+        match self.range(x, fx, fn_, ta, tb, w, t0, n_lo, n_hi) {
+            Some((lo, hi)) => self.can_toggle(x, lo, hi, n_lo, n_hi),
+            None => false,
+        }
+    }
+
+    /// Whether a noise-free signal range [lo, hi] plus noise in [n_lo, n_hi] can cross the
+    /// threshold the output is waiting for.
+    fn can_toggle(&self, x: Phase, lo: f64, hi: f64, n_lo: f64, n_hi: f64) -> bool {
+        if self.out.get(x) {
+            lo + n_lo < -self.half_h
+        } else {
+            hi + n_hi > self.half_h
+        }
+    }
+
+    /// Range of the noise-free signal (offset and ringing envelope included) over τ ∈ [ta, tb],
+    /// or `None` when a cheap bound already shows that no toggle is possible with noise in
+    /// [n_lo, n_hi].
+    #[allow(clippy::too_many_arguments)]
+    fn range(
+        &self,
+        x: Phase,
+        fx: &Foh,
+        fn_: &Foh,
+        ta: f64,
+        tb: f64,
+        w: [f64; 4],
+        t0: f64,
+        n_lo: f64,
+        n_hi: f64,
+    ) -> Option<(f64, f64)> {
+        // s(τ) = α + β·τ + A·e^{−τ/τp} − B·e^{−τ/τn} + ring − offset (+ noise)
         let alpha = fx.a - fn_.a - fx.b * fx.tau + fn_.b * fn_.tau;
         let beta = fx.b - fn_.b;
         let (l1, l2) = (alpha + beta * ta, alpha + beta * tb);
         let (a, b) = (fx.c * w[0], fn_.c * w[1]); // transients at ta; they only decay after
         let env = self.ring_envelope(t0 + ta);
         let off = self.offset.get(x);
-        let rising = !self.out.get(x);
-        let crude = if rising {
-            l1.max(l2) + a.max(0.0) - b.min(0.0) - off + env + n_hi > self.half_h
-        } else {
-            l1.min(l2) + a.min(0.0) - b.max(0.0) - off - env + n_lo < -self.half_h
-        };
-        if !crude {
-            return false;
+        let (lmin, lmax) = (l1.min(l2) - off - env, l1.max(l2) - off + env);
+        // Crude bound first: each decaying term lies between 0 and its value at ta.
+        if !self.can_toggle(
+            x,
+            lmin + a.min(0.0) - b.max(0.0),
+            lmax + a.max(0.0) - b.min(0.0),
+            n_lo,
+            n_hi,
+        ) {
+            return None;
         }
         // Exact range of A·e^{−τ/τp} − B·e^{−τ/τn}: the ends and the one stationary point.
         let (ga, gb) = (a - b, fx.c * w[2] - fn_.c * w[3]);
@@ -391,11 +435,7 @@ impl ComparatorBank {
                 gmax = gmax.max(g);
             }
         }
-        if rising {
-            l1.max(l2) + gmax - off + env + n_hi > self.half_h
-        } else {
-            l1.min(l2) + gmin - off - env + n_lo < -self.half_h
-        }
+        Some((lmin + gmin, lmax + gmax))
     }
 
     /// Outputs as seen after the propagation delay at instant `at`.
