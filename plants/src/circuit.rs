@@ -479,8 +479,7 @@ mod tests {
                         u: 0.31,
                         v: -0.17,
                         w: -0.14,
-                    }
-                    .map(|x| x);
+                    };
                     let i = Abc::from_fn(|p| {
                         if modes.get(p).conducts() {
                             i.get(p)
@@ -495,8 +494,8 @@ mod tests {
                     };
                     let full = c.solve(&modes, &i, &e);
                     let (di, p) = lin.eval(&i.to_array(), &e.to_array());
-                    for k in 0..3 {
-                        assert!((di[k] - full.di.to_array()[k]).abs() < 1e-6, "{modes:?}");
+                    for (a, b) in di.iter().zip(full.di.to_array()) {
+                        assert!((a - b).abs() < 1e-6, "{modes:?}");
                     }
                     let q = full.powers;
                     for (x, y) in [
