@@ -94,6 +94,18 @@ impl History {
     }
 }
 
+/// One channel's filter segments over the step being processed.
+#[derive(Copy, Clone, Debug)]
+struct Channel {
+    x: Phase,
+    /// Phase-path filter.
+    fx: Foh,
+    /// Neutral-path filter.
+    fn_: Foh,
+    /// Start of the step [s].
+    t0: f64,
+}
+
 /// The three comparators, their filters, the coupled ringing and the noise.
 #[derive(Copy, Clone, Debug)]
 pub struct ComparatorBank {
@@ -233,9 +245,8 @@ impl ComparatorBank {
         let mut ticks: Option<[f64; 4]> = None;
         for x in Phase::ALL {
             let fx = Foh::new(self.y.get(x), v0.get(x), v1.get(x), h, self.tau_p);
-            if k_start <= k_end
-                && self.may_toggle(x, &fx, &fn_, 0.0, h, w, -self.noise_a, self.noise_a, t0)
-            {
+            let c = Channel { x, fx, fn_, t0 };
+            if k_start <= k_end && self.may_toggle(&c, 0.0, h, w, -self.noise_a, self.noise_a) {
                 let d = *ticks.get_or_insert_with(|| {
                     let (ta, tb) = (k_start as f64 * TICK_S - t0, k_end as f64 * TICK_S - t0);
                     [
@@ -245,7 +256,7 @@ impl ComparatorBank {
                         (-tb / self.tau_n).exp(),
                     ]
                 });
-                self.scan(x, &fx, &fn_, t0, k_start, k_end, d);
+                self.scan(&c, k_start, k_end, d);
             }
             *self.y.get_mut(x) = fx.at_decayed(h, w[2]);
             self.last.0[x.index()] = fx;
@@ -270,17 +281,8 @@ impl ComparatorBank {
 
     /// Walks the ticks `k_start..=k_end` of the step where a toggle is possible.
     /// `d` = decay factors (e^{−τ/τp}, e^{−τ/τn}) at the first tick, then at the last.
-    #[allow(clippy::too_many_arguments)]
-    fn scan(
-        &mut self,
-        x: Phase,
-        fx: &Foh,
-        fn_: &Foh,
-        t0: f64,
-        k_start: u64,
-        k_end: u64,
-        d: [f64; 4],
-    ) {
+    fn scan(&mut self, c: &Channel, k_start: u64, k_end: u64, d: [f64; 4]) {
+        let (x, fx, fn_, t0) = (c.x, &c.fx, &c.fn_, c.t0);
         let ch = x.index();
         self.scans += 1;
         let mut k = k_start;
@@ -297,7 +299,7 @@ impl ComparatorBank {
             if check_rest || quiet_segments >= 16 {
                 // Bound the rest of the step (tightens as transients decay); stop if quiet.
                 let w = [dp, dn, w_end[0], w_end[1]];
-                match self.range(x, fx, fn_, ta, t_end, w, t0, -self.noise_a, self.noise_a) {
+                match self.range(c, ta, t_end, w, -self.noise_a, self.noise_a) {
                     Some(r) if self.can_toggle(x, r.0, r.1, -self.noise_a, self.noise_a) => {
                         rest = r
                     }
@@ -322,9 +324,7 @@ impl ComparatorBank {
             let w = [dp, dn, dpb, dnb];
             quiet_segments += 1;
             // Cheap test against the rest-of-step range before bounding this segment.
-            if self.can_toggle(x, rest.0, rest.1, n, n)
-                && self.may_toggle(x, fx, fn_, ta, tb, w, n, n, t0)
-            {
+            if self.can_toggle(x, rest.0, rest.1, n, n) && self.may_toggle(c, ta, tb, w, n, n) {
                 // Walk the ticks with per-tick factors instead of exp/sin at every tick.
                 self.ticks_scanned += span + 1;
                 check_rest = true; // after a busy segment, see whether the rest is quiet
@@ -359,21 +359,9 @@ impl ComparatorBank {
 
     /// Whether the output may toggle somewhere in τ ∈ [ta, tb], given noise in [n_lo, n_hi].
     /// `w` holds the decay factors (e^{−ta/τp}, e^{−ta/τn}, e^{−tb/τp}, e^{−tb/τn}).
-    #[allow(clippy::too_many_arguments)]
-    fn may_toggle(
-        &self,
-        x: Phase,
-        fx: &Foh,
-        fn_: &Foh,
-        ta: f64,
-        tb: f64,
-        w: [f64; 4],
-        n_lo: f64,
-        n_hi: f64,
-        t0: f64,
-    ) -> bool {
-        match self.range(x, fx, fn_, ta, tb, w, t0, n_lo, n_hi) {
-            Some((lo, hi)) => self.can_toggle(x, lo, hi, n_lo, n_hi),
+    fn may_toggle(&self, c: &Channel, ta: f64, tb: f64, w: [f64; 4], n_lo: f64, n_hi: f64) -> bool {
+        match self.range(c, ta, tb, w, n_lo, n_hi) {
+            Some((lo, hi)) => self.can_toggle(c.x, lo, hi, n_lo, n_hi),
             None => false,
         }
     }
@@ -391,19 +379,16 @@ impl ComparatorBank {
     /// Range of the noise-free signal (offset and ringing envelope included) over τ ∈ [ta, tb],
     /// or `None` when a cheap bound already shows that no toggle is possible with noise in
     /// [n_lo, n_hi].
-    #[allow(clippy::too_many_arguments)]
     fn range(
         &self,
-        x: Phase,
-        fx: &Foh,
-        fn_: &Foh,
+        c: &Channel,
         ta: f64,
         tb: f64,
         w: [f64; 4],
-        t0: f64,
         n_lo: f64,
         n_hi: f64,
     ) -> Option<(f64, f64)> {
+        let (x, fx, fn_, t0) = (c.x, &c.fx, &c.fn_, c.t0);
         // s(τ) = α + β·τ + A·e^{−τ/τp} − B·e^{−τ/τn} + ring − offset (+ noise)
         let alpha = fx.a - fn_.a - fx.b * fx.tau + fn_.b * fn_.tau;
         let beta = fx.b - fn_.b;
