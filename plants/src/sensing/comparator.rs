@@ -95,7 +95,7 @@ impl History {
 }
 
 /// One channel's filter segments over the step being processed.
-#[derive(Copy, Clone, Debug)]
+#[derive(Clone, Debug)]
 struct Channel {
     x: Phase,
     /// Phase-path filter.
@@ -104,6 +104,9 @@ struct Channel {
     fn_: Foh,
     /// Start of the step [s].
     t0: f64,
+    /// The stationary point of A·e^{−τ/τp} − B·e^{−τ/τn} and its value, once computed:
+    /// it depends only on the step, not on the interval being bounded.
+    stationary: std::cell::Cell<Option<(f64, f64)>>,
 }
 
 /// The three comparators, their filters, the coupled ringing and the noise.
@@ -237,6 +240,11 @@ impl ComparatorBank {
         if h <= 0.0 {
             return;
         }
+        if self.ring_mag != 0.0 && self.ring_envelope(t0) < 1e-9 {
+            // Decayed below a nanovolt: drop it so later bounds skip the envelope.
+            self.ring = (0.0, 0.0);
+            self.ring_mag = 0.0;
+        }
         let fn_ = Foh::new(self.y_n, vn0, vn1, h, self.tau_n);
         let k_start = (t0 / TICK_S + 1e-6).floor() as u64 + 1;
         let k_end = (t1 / TICK_S + 1e-6).floor() as u64;
@@ -245,7 +253,7 @@ impl ComparatorBank {
         let mut ticks: Option<[f64; 4]> = None;
         for x in Phase::ALL {
             let fx = Foh::new(self.y.get(x), v0.get(x), v1.get(x), h, self.tau_p);
-            let c = Channel { x, fx, fn_, t0 };
+            let c = Channel { x, fx, fn_, t0, stationary: std::cell::Cell::new(None) };
             if k_start <= k_end && self.may_toggle(&c, 0.0, h, w, -self.noise_a, self.noise_a) {
                 let d = *ticks.get_or_insert_with(|| {
                     let (ta, tb) = (k_start as f64 * TICK_S - t0, k_end as f64 * TICK_S - t0);
@@ -410,15 +418,21 @@ impl ComparatorBank {
         // Exact range of A·e^{−τ/τp} − B·e^{−τ/τn}: the ends and the one stationary point.
         let (ga, gb) = (a - b, fx.c * w[2] - fn_.c * w[3]);
         let (mut gmin, mut gmax) = (ga.min(gb), ga.max(gb));
-        let k = 1.0 / self.tau_p - 1.0 / self.tau_n;
-        let (ca, cb) = (fx.c, fn_.c);
-        if ca * cb > 0.0 && k != 0.0 {
-            let ts = ((ca * self.tau_n) / (cb * self.tau_p)).ln() / k;
-            if ts > ta && ts < tb {
-                let g = ca * (-ts / self.tau_p).exp() - cb * (-ts / self.tau_n).exp();
-                gmin = gmin.min(g);
-                gmax = gmax.max(g);
-            }
+        let (ts, gts) = c.stationary.get().unwrap_or_else(|| {
+            let k = 1.0 / self.tau_p - 1.0 / self.tau_n;
+            let (ca, cb) = (fx.c, fn_.c);
+            let st = if ca * cb > 0.0 && k != 0.0 {
+                let ts = ((ca * self.tau_n) / (cb * self.tau_p)).ln() / k;
+                (ts, ca * (-ts / self.tau_p).exp() - cb * (-ts / self.tau_n).exp())
+            } else {
+                (f64::NAN, 0.0)
+            };
+            c.stationary.set(Some(st));
+            st
+        });
+        if ts > ta && ts < tb {
+            gmin = gmin.min(gts);
+            gmax = gmax.max(gts);
         }
         Some((lmin + gmin, lmax + gmax))
     }
