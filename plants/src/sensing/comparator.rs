@@ -127,8 +127,9 @@ pub struct ComparatorBank {
     q_p: f64,
     q_n: f64,
     q_ring: (f64, f64),
-    /// The decay factors over one noise interval.
+    /// The decay factors over one noise interval (filters, ringing envelope).
     q_seg: (f64, f64),
+    q_seg_ring: f64,
     y: Abc<f64>,
     y_n: f64,
     out: Abc<bool>,
@@ -170,6 +171,7 @@ impl ComparatorBank {
                 let (sn, cs) = (std::f64::consts::TAU * p.ring_frequency_hz * TICK_S).sin_cos();
                 (d * cs, d * sn)
             },
+            q_seg_ring: (-(p.noise_interval().0 as f64) * TICK_S / p.ring_decay_s).exp(),
             q_seg: {
                 let n = p.noise_interval().0 as f64 * TICK_S;
                 (
@@ -248,7 +250,8 @@ impl ComparatorBank {
         let fn_ = Foh::new(self.y_n, vn0, vn1, h, self.tau_n);
         let k_start = (t0 / TICK_S + 1e-6).floor() as u64 + 1;
         let k_end = (t1 / TICK_S + 1e-6).floor() as u64;
-        let w = [1.0, 1.0, (-h / self.tau_p).exp(), (-h / self.tau_n).exp()];
+        let env0 = self.ring_envelope(t0);
+        let w = [1.0, 1.0, (-h / self.tau_p).exp(), (-h / self.tau_n).exp(), env0];
         // Decay factors at the first and last tick of the step, shared by the channels.
         let mut ticks: Option<[f64; 4]> = None;
         for x in Phase::ALL {
@@ -264,7 +267,7 @@ impl ComparatorBank {
                         (-tb / self.tau_n).exp(),
                     ]
                 });
-                self.scan(&c, k_start, k_end, d);
+                self.scan(&c, k_start, k_end, d, env0);
             }
             *self.y.get_mut(x) = fx.at_decayed(h, w[2]);
             self.last.0[x.index()] = fx;
@@ -289,7 +292,7 @@ impl ComparatorBank {
 
     /// Walks the ticks `k_start..=k_end` of the step where a toggle is possible.
     /// `d` = decay factors (e^{−τ/τp}, e^{−τ/τn}) at the first tick, then at the last.
-    fn scan(&mut self, c: &Channel, k_start: u64, k_end: u64, d: [f64; 4]) {
+    fn scan(&mut self, c: &Channel, k_start: u64, k_end: u64, d: [f64; 4], env0: f64) {
         let (x, fx, fn_, t0) = (c.x, &c.fx, &c.fn_, c.t0);
         let ch = x.index();
         self.scans += 1;
@@ -297,8 +300,10 @@ impl ComparatorBank {
         let t_end = k_end as f64 * TICK_S - t0;
         let w_end = [d[2], d[3]];
         let seg_q = self.q_seg;
-        // Decay factors at the current tick, carried from segment to segment.
+        // Decay factors at the current tick, carried from segment to segment; the ringing
+        // envelope at the step start bounds it at every later tick.
         let (mut dp, mut dn) = (d[0], d[1]);
+        let mut env = env0;
         let mut check_rest = true;
         let mut rest = (0.0, 0.0);
         let mut quiet_segments = 0u32;
@@ -306,7 +311,7 @@ impl ComparatorBank {
             let ta = k as f64 * TICK_S - t0;
             if check_rest || quiet_segments >= 16 {
                 // Bound the rest of the step (tightens as transients decay); stop if quiet.
-                let w = [dp, dn, w_end[0], w_end[1]];
+                let w = [dp, dn, w_end[0], w_end[1], env];
                 match self.range(c, ta, t_end, w, -self.noise_a, self.noise_a) {
                     Some(r) if self.can_toggle(x, r.0, r.1, -self.noise_a, self.noise_a) => {
                         rest = r
@@ -329,7 +334,7 @@ impl ComparatorBank {
                     dn * self.q_n.powi(span as i32),
                 )
             };
-            let w = [dp, dn, dpb, dnb];
+            let w = [dp, dn, dpb, dnb, env];
             quiet_segments += 1;
             // Cheap test against the rest-of-step range before bounding this segment.
             if self.can_toggle(x, rest.0, rest.1, n, n) && self.may_toggle(c, ta, tb, w, n, n) {
@@ -361,13 +366,19 @@ impl ComparatorBank {
             }
             dp = dpb * self.q_p;
             dn = dnb * self.q_n;
+            env *= if span + 1 == self.noise_n {
+                self.q_seg_ring
+            } else {
+                (-((span + 1) as f64) * TICK_S / self.ring_decay).exp()
+            };
             k = seg_end + 1;
         }
     }
 
     /// Whether the output may toggle somewhere in τ ∈ [ta, tb], given noise in [n_lo, n_hi].
-    /// `w` holds the decay factors (e^{−ta/τp}, e^{−ta/τn}, e^{−tb/τp}, e^{−tb/τn}).
-    fn may_toggle(&self, c: &Channel, ta: f64, tb: f64, w: [f64; 4], n_lo: f64, n_hi: f64) -> bool {
+    /// `w` holds the decay factors (e^{−ta/τp}, e^{−ta/τn}, e^{−tb/τp}, e^{−tb/τn}) and a bound
+    /// on the ringing envelope from ta on.
+    fn may_toggle(&self, c: &Channel, ta: f64, tb: f64, w: [f64; 5], n_lo: f64, n_hi: f64) -> bool {
         match self.range(c, ta, tb, w, n_lo, n_hi) {
             Some((lo, hi)) => self.can_toggle(c.x, lo, hi, n_lo, n_hi),
             None => false,
@@ -392,17 +403,17 @@ impl ComparatorBank {
         c: &Channel,
         ta: f64,
         tb: f64,
-        w: [f64; 4],
+        w: [f64; 5],
         n_lo: f64,
         n_hi: f64,
     ) -> Option<(f64, f64)> {
-        let (x, fx, fn_, t0) = (c.x, &c.fx, &c.fn_, c.t0);
+        let (x, fx, fn_) = (c.x, &c.fx, &c.fn_);
         // s(τ) = α + β·τ + A·e^{−τ/τp} − B·e^{−τ/τn} + ring − offset (+ noise)
         let alpha = fx.a - fn_.a - fx.b * fx.tau + fn_.b * fn_.tau;
         let beta = fx.b - fn_.b;
         let (l1, l2) = (alpha + beta * ta, alpha + beta * tb);
         let (a, b) = (fx.c * w[0], fn_.c * w[1]); // transients at ta; they only decay after
-        let env = self.ring_envelope(t0 + ta);
+        let env = w[4];
         let off = self.offset.get(x);
         let (lmin, lmax) = (l1.min(l2) - off - env, l1.max(l2) - off + env);
         // Crude bound first: each decaying term lies between 0 and its value at ta.
