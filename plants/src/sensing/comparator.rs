@@ -130,6 +130,8 @@ pub struct ComparatorBank {
     /// The decay factors over one noise interval (filters, ringing envelope).
     q_seg: (f64, f64),
     q_seg_ring: f64,
+    /// Decay factors over one noise interval less one tick.
+    q_seg_m1: (f64, f64),
     y: Abc<f64>,
     y_n: f64,
     out: Abc<bool>,
@@ -143,6 +145,8 @@ pub struct ComparatorBank {
     pub ticks_scanned: u64,
     /// Scans started (work counter).
     pub scans: u64,
+    /// Noise segments visited by scans (work counter).
+    pub segments: u64,
     /// Filter segments of the last update (phase paths, neutral) and its start time.
     last: ([Foh; 3], Foh, f64),
 }
@@ -171,6 +175,10 @@ impl ComparatorBank {
                 let (sn, cs) = (std::f64::consts::TAU * p.ring_frequency_hz * TICK_S).sin_cos();
                 (d * cs, d * sn)
             },
+            q_seg_m1: {
+                let n = (p.noise_interval().0 - 1) as f64 * TICK_S;
+                ((-n / p.phase_filter_tau_s).exp(), (-n / p.neutral_filter_tau_s).exp())
+            },
             q_seg_ring: (-(p.noise_interval().0 as f64) * TICK_S / p.ring_decay_s).exp(),
             q_seg: {
                 let n = p.noise_interval().0 as f64 * TICK_S;
@@ -193,6 +201,7 @@ impl ComparatorBank {
             toggles: 0,
             ticks_scanned: 0,
             scans: 0,
+            segments: 0,
             last: (
                 [Foh::new(0.0, 0.0, 0.0, 0.0, 1.0); 3],
                 Foh::new(0.0, 0.0, 0.0, 0.0, 1.0),
@@ -295,6 +304,7 @@ impl ComparatorBank {
     fn scan(&mut self, c: &Channel, k_start: u64, k_end: u64, d: [f64; 4], env0: f64) {
         let (x, fx, fn_, t0) = (c.x, &c.fx, &c.fn_, c.t0);
         let ch = x.index();
+        let key = noise::channel_key(self.seed, ch as u64);
         self.scans += 1;
         let mut k = k_start;
         let t_end = k_end as f64 * TICK_S - t0;
@@ -323,21 +333,22 @@ impl ComparatorBank {
             }
             let m = k / self.noise_n;
             let seg_end = ((m + 1) * self.noise_n - 1).min(k_end);
-            let n = noise::uniform(self.seed, ch as u64, m, self.noise_a);
-            let tb = seg_end as f64 * TICK_S - t0;
+            let n = noise::uniform_keyed(key, m, self.noise_a);
             let span = seg_end - k;
-            let (dpb, dnb) = if span + 1 == self.noise_n {
-                (dp * seg_q.0 / self.q_p, dn * seg_q.1 / self.q_n)
-            } else {
-                (
-                    dp * self.q_p.powi(span as i32),
-                    dn * self.q_n.powi(span as i32),
-                )
-            };
-            let w = [dp, dn, dpb, dnb, env];
+            let full = span + 1 == self.noise_n;
             quiet_segments += 1;
+            self.segments += 1;
             // Cheap test against the rest-of-step range before bounding this segment.
-            if self.can_toggle(x, rest.0, rest.1, n, n) && self.may_toggle(c, ta, tb, w, n, n) {
+            let busy = self.can_toggle(x, rest.0, rest.1, n, n) && {
+                let tb = seg_end as f64 * TICK_S - t0;
+                let (dpb, dnb) = if full {
+                    (dp * self.q_seg_m1.0, dn * self.q_seg_m1.1)
+                } else {
+                    (dp * self.q_p.powi(span as i32), dn * self.q_n.powi(span as i32))
+                };
+                self.may_toggle(c, ta, tb, [dp, dn, dpb, dnb, env], n, n)
+            };
+            if busy {
                 // Walk the ticks with per-tick factors instead of exp/sin at every tick.
                 self.ticks_scanned += span + 1;
                 check_rest = true; // after a busy segment, see whether the rest is quiet
@@ -346,26 +357,31 @@ impl ComparatorBank {
                 let mut z = self.ring_at_phasor(t0 + ta);
                 let lin0 = fx.a - fn_.a - fx.b * fx.tau + fn_.b * fn_.tau - self.offset.get(x) + n;
                 let slope = fx.b - fn_.b;
+                let (half_h, qp, qn, qr) = (self.half_h, self.q_p, self.q_n, self.q_ring);
+                let mut out = self.out.get(x);
+                let mut tau = k as f64 * TICK_S - t0;
                 for kk in k..=seg_end {
-                    let tau = kk as f64 * TICK_S - t0;
                     let s = lin0 + slope * tau + ep - en + z.1;
-                    let out = self.out.get(x);
-                    if (!out && s > self.half_h) || (out && s < -self.half_h) {
-                        *self.out.get_mut(x) = !out;
-                        self.hist[ch].push(kk, !out);
+                    if (!out && s > half_h) || (out && s < -half_h) {
+                        out = !out;
+                        self.hist[ch].push(kk, out);
                         self.toggles += 1;
                         check_rest = true;
                     }
-                    ep *= self.q_p;
-                    en *= self.q_n;
-                    z = (
-                        z.0 * self.q_ring.0 - z.1 * self.q_ring.1,
-                        z.0 * self.q_ring.1 + z.1 * self.q_ring.0,
-                    );
+                    ep *= qp;
+                    en *= qn;
+                    z = (z.0 * qr.0 - z.1 * qr.1, z.0 * qr.1 + z.1 * qr.0);
+                    tau += TICK_S;
                 }
+                *self.out.get_mut(x) = out;
             }
-            dp = dpb * self.q_p;
-            dn = dnb * self.q_n;
+            if full {
+                dp *= seg_q.0;
+                dn *= seg_q.1;
+            } else {
+                dp *= self.q_p.powi(span as i32 + 1);
+                dn *= self.q_n.powi(span as i32 + 1);
+            }
             env *= if span + 1 == self.noise_n {
                 self.q_seg_ring
             } else {

@@ -3,12 +3,20 @@
 
 /// Uniform noise in [−amplitude, amplitude] for sample `index` of `channel`.
 pub fn uniform(seed: u64, channel: u64, index: u64, amplitude: f64) -> f64 {
+    uniform_keyed(channel_key(seed, channel), index, amplitude)
+}
+
+/// The per-channel part of the hash, computed once per channel.
+pub fn channel_key(seed: u64, channel: u64) -> u64 {
+    seed ^ mix(channel.wrapping_add(0x9E37_79B9_7F4A_7C15))
+}
+
+/// [`uniform`] with the channel key precomputed.
+pub fn uniform_keyed(key: u64, index: u64, amplitude: f64) -> f64 {
     if amplitude == 0.0 {
         return 0.0;
     }
-    let z = mix(seed
-        ^ mix(channel.wrapping_add(0x9E37_79B9_7F4A_7C15))
-        ^ index.wrapping_mul(0xD1B5_4A32_D192_ED03));
+    let z = mix(key ^ index.wrapping_mul(0xD1B5_4A32_D192_ED03));
     let unit = (z >> 11) as f64 * (1.0 / (1u64 << 53) as f64);
     amplitude * (2.0 * unit - 1.0)
 }
