@@ -21,9 +21,8 @@ pub struct CurrentSense {
     full_scale: f64,
     conv: u64,
     y: f64,
-    ready: u16,
-    pending: u16,
-    pending_at: u64,
+    /// The latest conversions as (readable from tick, code), newest last.
+    results: [(u64, u16); 4],
     next_sample: u64,
 }
 
@@ -40,9 +39,7 @@ impl CurrentSense {
             full_scale: p.adc_full_scale_v,
             conv,
             y: 0.0,
-            ready: 0,
-            pending: 0,
-            pending_at: conv,
+            results: [(0, 0); 4],
             next_sample: conv,
         }
     }
@@ -74,21 +71,16 @@ impl CurrentSense {
         let k_end = (t1 / TICK_S + 1e-6).floor() as u64;
         while self.next_sample <= k_end {
             let code = self.quantise(seg.at(self.next_sample as f64 * TICK_S - t0));
-            self.ready = self.pending;
-            self.pending = code;
-            self.pending_at = self.next_sample + self.conv;
+            self.results.rotate_left(1);
+            self.results[3] = (self.next_sample + self.conv, code);
             self.next_sample += self.conv;
         }
         self.y = seg.at(h);
     }
 
-    /// The latest conversion readable at `at`.
+    /// The latest conversion readable at `at` (which may lie a few conversions back).
     pub fn code_at(&self, at: Ticks) -> u16 {
-        if at.0 >= self.pending_at {
-            self.pending
-        } else {
-            self.ready
-        }
+        self.results.iter().rev().find(|r| r.0 <= at.0).map_or(0, |r| r.1)
     }
 
     /// Amperes per ADC code (for converting readings back).
