@@ -88,6 +88,7 @@ pub struct PlantStats {
 }
 
 /// Cubic Hermite interpolation of one RK4 step (states and derivatives at both ends).
+#[derive(Copy, Clone, Debug)]
 struct Dense {
     x0: State,
     f0: State,
@@ -106,6 +107,20 @@ impl Dense {
         let h11 = (s3 - s2) * self.h;
         self.x0 * h00 + self.f0 * h10 + self.x1 * h01 + self.f1 * h11
     }
+}
+
+/// A step integrated beyond the reported time. Instants inside it are served from its dense
+/// output (a watched comparator change usually changes nothing in the drive), until
+/// something changes the dynamics: then the plant settles at the present time.
+#[derive(Clone, Debug)]
+struct Lookahead {
+    dense: Dense,
+    t0: f64,
+    t1: f64,
+    x1: State,
+    s1: Solution,
+    cur0: CurrentSense,
+    event: Option<Phase>,
 }
 
 /// Motor + bridge + sensing. Build with [`BldcPlant::new`].
@@ -135,6 +150,8 @@ pub struct BldcPlant {
     /// The network's affine form for the present conduction state, and a cache of all 125.
     lin: Linearised,
     lin_cache: Vec<Option<Linearised>>,
+    /// The step integrated ahead of `t`, if any.
+    lookahead: Option<Lookahead>,
     /// Latest clock edge reported as a sensing stop: changes up to it have been sampled.
     reported: Ticks,
     stats: PlantStats,
@@ -179,6 +196,7 @@ impl BldcPlant {
             lin: circuit.linearise(&modes),
             lin_cache: vec![None; 125],
             reported: Ticks::ZERO,
+            lookahead: None,
             stats: PlantStats::default(),
             params,
         })
@@ -191,12 +209,14 @@ impl BldcPlant {
 
     /// Sets the load torque TL [N·m] (opposing positive rotation) from now on.
     pub fn set_load_torque(&mut self, nm: f64) {
+        self.settle();
         self.load_nm = if nm.is_finite() { nm } else { 0.0 };
     }
 
     /// Sets rotor angle θe [rad] and speed [rpm]; `lock` holds the speed constant from now on
     /// (a dynamometer), otherwise the rotor is free.
     pub fn set_rotor(&mut self, theta_e: f64, speed_rpm: f64, lock: bool) {
+        self.settle();
         self.x[THETA] = theta_e.rem_euclid(TAU);
         self.x[OMEGA] = speed_rpm * TAU / 60.0;
         self.speed_lock = lock;
@@ -467,6 +487,89 @@ impl BldcPlant {
         }
         self.stats.steps += 1;
     }
+    /// Commits a step ending at `t1` (handling its diode event, if any).
+    fn finish_step(
+        &mut self,
+        x1: State,
+        t0: f64,
+        t1: f64,
+        s1: Solution,
+        event: Option<Phase>,
+    ) -> Option<PlantStop> {
+        self.commit(x1, t1);
+        if let Some(p) = event {
+            if self.modes.get(p).is_diode() {
+                // The diode current reached zero: exactly zero, sum kept at zero.
+                let k = p.index();
+                let residual = self.x[k];
+                self.x[k] = 0.0;
+                if let Some(q) = Phase::ALL
+                    .into_iter()
+                    .filter(|&q| q != p && self.modes.get(q).conducts())
+                    .max_by(|a, b| self.x[a.index()].abs().total_cmp(&self.x[b.index()].abs()))
+                {
+                    self.x[q.index()] += residual;
+                }
+            }
+            self.same_instant_events = if t1 - t0 < 1e-12 {
+                self.same_instant_events + 1
+            } else {
+                0
+            };
+            self.refresh_start();
+            self.stats.diode_events += 1;
+            return Some(PlantStop::Diode);
+        }
+        self.same_instant_events = 0;
+        self.start = s1;
+        None
+    }
+
+    /// Moves the reported time to `t` inside the lookahead step (interpolated state).
+    fn serve_at(&mut self, t: f64) {
+        if let Some(la) = &self.lookahead {
+            self.x = la.dense.at((t - la.t0) / la.dense.h);
+            if !(0.0..TAU).contains(&self.x[THETA]) {
+                self.x[THETA] = self.x[THETA].rem_euclid(TAU);
+            }
+            self.t = t;
+        }
+    }
+
+    /// Serves a stop from the step already integrated ahead, or finishes that step.
+    fn serve_lookahead(&mut self, t_end: f64, watch: Watch) -> Option<PlantStop> {
+        let t1 = self.lookahead.as_ref()?.t1;
+        let (now, _) = Self::ceil_tick(self.t);
+        if let Some(p) = self.pending_sample(watch, now) {
+            let ps = p.seconds();
+            if ps < t1 - 1e-15 && ps <= t_end + 1e-15 {
+                self.serve_at(ps);
+                self.reported = p;
+                return Some(PlantStop::Sensing(p));
+            }
+        }
+        if t_end < t1 - 1e-15 {
+            self.serve_at(t_end.max(self.t));
+            return Some(PlantStop::Reached);
+        }
+        let la = self.lookahead.take()?;
+        self.finish_step(la.x1, la.t0, la.t1, la.s1, la.event)
+    }
+
+    /// Ends any lookahead at the present time, before the dynamics change.
+    fn settle(&mut self) {
+        if let Some(la) = self.lookahead.take() {
+            let (now, _) = Self::ceil_tick(self.t);
+            self.cmp.truncate_at(now);
+            let s = self.solve_at(&self.x);
+            self.cur = la.cur0;
+            self.cur
+                .update(la.t0, self.t, self.start.i_shunt, s.i_shunt);
+            self.start = s;
+            self.same_instant_events = 0;
+            self.stats.retries += 1;
+        }
+    }
 }
 
 impl Plant for BldcPlant {
@@ -475,6 +578,7 @@ impl Plant for BldcPlant {
     }
 
     fn set_gates(&mut self, gates: &Gates) {
+        self.settle();
         let before = self.start.v_term;
         let old = self.gates;
         self.gates = *gates;
@@ -495,6 +599,9 @@ impl Plant for BldcPlant {
     fn advance(&mut self, until: Ticks, watch: Watch) -> PlantStop {
         let t_end = until.seconds();
         loop {
+            if let Some(stop) = self.serve_lookahead(t_end, watch) {
+                return stop;
+            }
             let t0 = self.t;
             let (now, on_tick) = Self::ceil_tick(t0);
             let pending = self.pending_sample(watch, now);
@@ -517,7 +624,7 @@ impl Plant for BldcPlant {
             let mut dense = None;
             if self.same_instant_events < 8 {
                 if let Some(p) = self.triggered(&x1, &s1) {
-                    if self.modes.get(p).is_diode() {
+                    let d = if self.modes.get(p).is_diode() {
                         let d = Dense {
                             x0,
                             f0,
@@ -528,15 +635,22 @@ impl Plant for BldcPlant {
                         let (frac, x) = self.locate_diode(&d, p);
                         x1 = x;
                         t1 = t0 + frac * d.h;
+                        d
                     } else {
                         let h = self.locate(&x0, t1 - t0, p);
                         x1 = self.rk4(&x0, h);
                         t1 = t0 + h;
-                    }
+                        Dense {
+                            x0,
+                            f0,
+                            x1,
+                            f1: self.deriv_at(&x1),
+                            h,
+                        }
+                    };
                     s1 = self.solve_at(&x1);
                     event = Some(p);
-                } else {
-                    dense = Some((f0, t1 - t0));
+                    dense = Some(d);
                 }
             }
             let cur0 = self.cur;
@@ -550,59 +664,36 @@ impl Plant for BldcPlant {
             );
             self.cur.update(t0, t1, self.start.i_shunt, s1.i_shunt);
             if let Some(e) = self.pending_sample(watch, now) {
-                let es = e.seconds();
-                if es < t1 - 1e-15 {
-                    // A watched output changed inside the step: cut the step at the clock
-                    // edge that samples it.
-                    self.cmp.truncate_at(e);
-                    x1 = match dense {
-                        Some((f0, h)) => Dense {
+                if e.seconds() < t1 - 1e-15 {
+                    // A watched output changed inside the step: report it at the clock edge
+                    // that samples it, keeping the rest of the step for later.
+                    let dense = match dense {
+                        Some(d) => d,
+                        None => Dense {
                             x0,
                             f0,
                             x1,
                             f1: self.deriv_at(&x1),
-                            h,
-                        }
-                        .at((es - t0) / h),
-                        None => self.rk4(&x0, es - t0),
+                            h: t1 - t0,
+                        },
                     };
-                    s1 = self.solve_at(&x1);
-                    self.cur = cur0;
-                    self.cur.update(t0, es, self.start.i_shunt, s1.i_shunt);
-                    self.stats.retries += 1;
-                    self.commit(x1, es);
-                    self.start = s1;
-                    self.same_instant_events = 0;
+                    self.lookahead = Some(Lookahead {
+                        dense,
+                        t0,
+                        t1,
+                        x1,
+                        s1,
+                        cur0,
+                        event,
+                    });
+                    self.serve_at(e.seconds());
                     self.reported = e;
                     return PlantStop::Sensing(e);
                 }
             }
-            self.commit(x1, t1);
-            if let Some(p) = event {
-                if self.modes.get(p).is_diode() {
-                    // The diode current reached zero: exactly zero, sum kept at zero.
-                    let k = p.index();
-                    let residual = self.x[k];
-                    self.x[k] = 0.0;
-                    if let Some(q) = Phase::ALL
-                        .into_iter()
-                        .filter(|&q| q != p && self.modes.get(q).conducts())
-                        .max_by(|a, b| self.x[a.index()].abs().total_cmp(&self.x[b.index()].abs()))
-                    {
-                        self.x[q.index()] += residual;
-                    }
-                }
-                self.same_instant_events = if t1 - t0 < 1e-12 {
-                    self.same_instant_events + 1
-                } else {
-                    0
-                };
-                self.refresh_start();
-                self.stats.diode_events += 1;
-                return PlantStop::Diode;
+            if let Some(stop) = self.finish_step(x1, t0, t1, s1, event) {
+                return stop;
             }
-            self.same_instant_events = 0;
-            self.start = s1;
         }
     }
 

@@ -177,7 +177,10 @@ impl ComparatorBank {
             },
             q_seg_m1: {
                 let n = (p.noise_interval().0 - 1) as f64 * TICK_S;
-                ((-n / p.phase_filter_tau_s).exp(), (-n / p.neutral_filter_tau_s).exp())
+                (
+                    (-n / p.phase_filter_tau_s).exp(),
+                    (-n / p.neutral_filter_tau_s).exp(),
+                )
             },
             q_seg_ring: (-(p.noise_interval().0 as f64) * TICK_S / p.ring_decay_s).exp(),
             q_seg: {
@@ -260,12 +263,24 @@ impl ComparatorBank {
         let k_start = (t0 / TICK_S + 1e-6).floor() as u64 + 1;
         let k_end = (t1 / TICK_S + 1e-6).floor() as u64;
         let env0 = self.ring_envelope(t0);
-        let w = [1.0, 1.0, (-h / self.tau_p).exp(), (-h / self.tau_n).exp(), env0];
+        let w = [
+            1.0,
+            1.0,
+            (-h / self.tau_p).exp(),
+            (-h / self.tau_n).exp(),
+            env0,
+        ];
         // Decay factors at the first and last tick of the step, shared by the channels.
         let mut ticks: Option<[f64; 4]> = None;
         for x in Phase::ALL {
             let fx = Foh::new(self.y.get(x), v0.get(x), v1.get(x), h, self.tau_p);
-            let c = Channel { x, fx, fn_, t0, stationary: std::cell::Cell::new(None) };
+            let c = Channel {
+                x,
+                fx,
+                fn_,
+                t0,
+                stationary: std::cell::Cell::new(None),
+            };
             if k_start <= k_end && self.may_toggle(&c, 0.0, h, w, -self.noise_a, self.noise_a) {
                 let d = *ticks.get_or_insert_with(|| {
                     let (ta, tb) = (k_start as f64 * TICK_S - t0, k_end as f64 * TICK_S - t0);
@@ -344,7 +359,10 @@ impl ComparatorBank {
                 let (dpb, dnb) = if full {
                     (dp * self.q_seg_m1.0, dn * self.q_seg_m1.1)
                 } else {
-                    (dp * self.q_p.powi(span as i32), dn * self.q_n.powi(span as i32))
+                    (
+                        dp * self.q_p.powi(span as i32),
+                        dn * self.q_n.powi(span as i32),
+                    )
                 };
                 self.may_toggle(c, ta, tb, [dp, dn, dpb, dnb, env], n, n)
             };
@@ -450,7 +468,10 @@ impl ComparatorBank {
             let (ca, cb) = (fx.c, fn_.c);
             let st = if ca * cb > 0.0 && k != 0.0 {
                 let ts = ((ca * self.tau_n) / (cb * self.tau_p)).ln() / k;
-                (ts, ca * (-ts / self.tau_p).exp() - cb * (-ts / self.tau_n).exp())
+                (
+                    ts,
+                    ca * (-ts / self.tau_p).exp() - cb * (-ts / self.tau_n).exp(),
+                )
             } else {
                 (f64::NAN, 0.0)
             };

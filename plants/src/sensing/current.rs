@@ -80,7 +80,11 @@ impl CurrentSense {
 
     /// The latest conversion readable at `at` (which may lie a few conversions back).
     pub fn code_at(&self, at: Ticks) -> u16 {
-        self.results.iter().rev().find(|r| r.0 <= at.0).map_or(0, |r| r.1)
+        self.results
+            .iter()
+            .rev()
+            .find(|r| r.0 <= at.0)
+            .map_or(0, |r| r.1)
     }
 
     /// Amperes per ADC code (for converting readings back).
