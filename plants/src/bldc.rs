@@ -107,6 +107,16 @@ impl Dense {
         let h11 = (s3 - s2) * self.h;
         self.x0 * h00 + self.f0 * h10 + self.x1 * h01 + self.f1 * h11
     }
+
+    /// One component of [`Dense::at`].
+    fn component(&self, k: usize, s: f64) -> f64 {
+        let (s2, s3) = (s * s, s * s * s);
+        let h00 = 2.0 * s3 - 3.0 * s2 + 1.0;
+        let h10 = (s3 - 2.0 * s2 + s) * self.h;
+        let h01 = 3.0 * s2 - 2.0 * s3;
+        let h11 = (s3 - s2) * self.h;
+        self.x0[k] * h00 + self.f0[k] * h10 + self.x1[k] * h01 + self.f1[k] * h11
+    }
 }
 
 /// A step integrated beyond the reported time. Instants inside it are served from its dense
@@ -351,7 +361,7 @@ impl BldcPlant {
         } else {
             -1.0
         };
-        let g = |s: f64| sign * d.at(s)[k];
+        let g = |s: f64| sign * d.component(k, s);
         let (mut a, mut b) = (0.0, 1.0);
         if g(0.0) <= 0.0 {
             return (0.0, d.x0);
