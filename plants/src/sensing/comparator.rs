@@ -130,6 +130,8 @@ pub struct ComparatorBank {
     /// The decay factors over one noise interval (filters, ringing envelope).
     q_seg: (f64, f64),
     q_seg_ring: f64,
+    /// Last step length and its decay factors e^{−h/τp}, e^{−h/τn}.
+    decay_cache: (f64, f64, f64),
     /// Decay factors over one noise interval less one tick.
     q_seg_m1: (f64, f64),
     y: Abc<f64>,
@@ -175,6 +177,7 @@ impl ComparatorBank {
                 let (sn, cs) = (std::f64::consts::TAU * p.ring_frequency_hz * TICK_S).sin_cos();
                 (d * cs, d * sn)
             },
+            decay_cache: (f64::NAN, 0.0, 0.0),
             q_seg_m1: {
                 let n = (p.noise_interval().0 - 1) as f64 * TICK_S;
                 (
@@ -263,15 +266,15 @@ impl ComparatorBank {
         let k_start = (t0 / TICK_S + 1e-6).floor() as u64 + 1;
         let k_end = (t1 / TICK_S + 1e-6).floor() as u64;
         let env0 = self.ring_envelope(t0);
-        let w = [
-            1.0,
-            1.0,
-            (-h / self.tau_p).exp(),
-            (-h / self.tau_n).exp(),
-            env0,
-        ];
+        // Steps repeat their lengths (PWM half-periods, the solver's longest step): cache.
+        if self.decay_cache.0 != h {
+            self.decay_cache = (h, (-h / self.tau_p).exp(), (-h / self.tau_n).exp());
+        }
+        let (_, eh_p, eh_n) = self.decay_cache;
+        let w = [1.0, 1.0, eh_p, eh_n, env0];
         // Decay factors at the first and last tick of the step, shared by the channels.
-        let mut ticks: Option<[f64; 4]> = None;
+        let on_ticks = ((t0 / TICK_S).round() - t0 / TICK_S).abs() < 1e-6 && ((t1 / TICK_S).round() - t1 / TICK_S).abs() < 1e-6;
+        let mut ticks: Option<[f64; 4]> = on_ticks.then_some([self.q_p, self.q_n, eh_p, eh_n]);
         for x in Phase::ALL {
             let fx = Foh::new(self.y.get(x), v0.get(x), v1.get(x), h, self.tau_p);
             let c = Channel {
