@@ -318,3 +318,78 @@ fn dead_time_makes_the_current_freewheel_through_a_diode() {
     );
     assert!(in_gap > 100, "samples inside dead-time gaps: {in_gap}");
 }
+
+/// Commutates as soon as it sees the floating phase's comparator change: exercises a gate
+/// change at a sensing edge inside a step the plant had already integrated ahead.
+struct CommutateOnEdge {
+    seen: Option<bool>,
+    switched_at: Option<Ticks>,
+}
+
+impl bldc_drive::drive_core::Controller for CommutateOnEdge {
+    fn clock(&self) -> Ticks {
+        Ticks(32)
+    }
+    fn tick(&mut self, now: Ticks, s: &bldc_drive::drive_core::Sensed) -> Command {
+        let w = Abc {
+            u: false,
+            v: false,
+            w: true,
+        };
+        if self.switched_at.is_none() && self.seen.is_some_and(|l| l != s.zc.w) {
+            self.switched_at = Some(now);
+        }
+        self.seen = Some(s.zc.w);
+        if self.switched_at.is_some() {
+            hold("VFG", 1000, Abc::splat(false))
+        } else {
+            hold("VGF", 1000, w)
+        }
+    }
+}
+
+#[test]
+fn commutating_at_a_sensed_edge_keeps_the_plant_exact() {
+    let params = PlantParams::default();
+    let mut eng = engine(
+        params,
+        CommutateOnEdge {
+            seen: None,
+            switched_at: None,
+        },
+    );
+    eng.plant.set_rotor(50f64.to_radians(), 2000.0, false);
+    let mut gate_change_at = None;
+    let mut last_gates = eng.gates();
+    eng.run_until(Ticks::from_seconds(3e-3).unwrap(), |e, _| {
+        let g = e.gates();
+        if gate_change_at.is_none() && g.low.w && !last_gates.low.w {
+            gate_change_at = Some((e.now(), e.plant.time_s()));
+        }
+        last_gates = g;
+    })
+    .unwrap();
+    // The edge fell inside a step already integrated ahead: the plant settled there.
+    assert!(eng.plant.stats().retries >= 1, "{:?}", eng.plant.stats());
+    let at = eng
+        .controller
+        .switched_at
+        .expect("the controller saw an edge");
+    let (tick, t) = gate_change_at.expect("the pattern changed");
+    assert_eq!(
+        tick, at,
+        "gates change at the clock edge that sampled the comparator"
+    );
+    assert!(
+        (t - at.seconds()).abs() < 1e-12,
+        "the plant was at that instant: {t} vs {}",
+        at.seconds()
+    );
+    let e = eng.plant.energy();
+    let out =
+        e.copper + e.switch + e.diode + e.shunt + e.friction + e.load + e.magnetic + e.kinetic;
+    // The rotor started with kinetic energy: count it.
+    let k0 = 0.5 * 17e-7 * (2000.0 * std::f64::consts::TAU / 60.0f64).powi(2);
+    let rel = (e.supply + k0 - out).abs() / (e.supply.abs() + k0);
+    assert!(rel < 1e-6, "energy balance off by {rel}: {e:?}");
+}

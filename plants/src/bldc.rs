@@ -83,7 +83,8 @@ pub struct PlantStats {
     pub steps: u64,
     /// Diode events located.
     pub diode_events: u64,
-    /// RK4 steps spent locating events or cutting steps short.
+    /// Extra work: RK4 steps spent locating clamp events, and steps integrated ahead that
+    /// were cut short because the dynamics changed inside them.
     pub retries: u64,
 }
 

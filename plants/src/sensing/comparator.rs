@@ -273,7 +273,8 @@ impl ComparatorBank {
         let (_, eh_p, eh_n) = self.decay_cache;
         let w = [1.0, 1.0, eh_p, eh_n, env0];
         // Decay factors at the first and last tick of the step, shared by the channels.
-        let on_ticks = ((t0 / TICK_S).round() - t0 / TICK_S).abs() < 1e-6 && ((t1 / TICK_S).round() - t1 / TICK_S).abs() < 1e-6;
+        let on_ticks = ((t0 / TICK_S).round() - t0 / TICK_S).abs() < 1e-6
+            && ((t1 / TICK_S).round() - t1 / TICK_S).abs() < 1e-6;
         let mut ticks: Option<[f64; 4]> = on_ticks.then_some([self.q_p, self.q_n, eh_p, eh_n]);
         for x in Phase::ALL {
             let fx = Foh::new(self.y.get(x), v0.get(x), v1.get(x), h, self.tau_p);
