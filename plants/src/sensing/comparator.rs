@@ -336,6 +336,7 @@ impl ComparatorBank {
         let mut check_rest = true;
         let mut rest = (0.0, 0.0);
         let mut quiet_segments = 0u32;
+        let mut m = k / self.noise_n; // noise sample index, one per segment
         while k <= k_end {
             let ta = k as f64 * TICK_S - t0;
             if check_rest || quiet_segments >= 16 {
@@ -350,7 +351,6 @@ impl ComparatorBank {
                 check_rest = false;
                 quiet_segments = 0;
             }
-            let m = k / self.noise_n;
             let seg_end = ((m + 1) * self.noise_n - 1).min(k_end);
             let n = noise::uniform_keyed(key, m, self.noise_a);
             let span = seg_end - k;
@@ -410,6 +410,7 @@ impl ComparatorBank {
                 (-((span + 1) as f64) * TICK_S / self.ring_decay).exp()
             };
             k = seg_end + 1;
+            m += 1;
         }
     }
 
