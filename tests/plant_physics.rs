@@ -393,3 +393,29 @@ fn commutating_at_a_sensed_edge_keeps_the_plant_exact() {
     let rel = (e.supply + k0 - out).abs() / (e.supply.abs() + k0);
     assert!(rel < 1e-6, "energy balance off by {rel}: {e:?}");
 }
+
+/// First instant at which the floating phase w starts conducting through its low diode
+/// (a clamp event in a PWM off-time), for a given solver step.
+fn first_w_clamp(max_step_s: f64) -> f64 {
+    let mut params = PlantParams::default();
+    params.solver.max_step_s = max_step_s;
+    let mut eng = engine(params, Hold(hold("VGF", 1000, Abc::splat(false))));
+    eng.plant.set_rotor(30f64.to_radians(), 5000.0, true);
+    let mut first = None;
+    eng.run_until(Ticks::from_seconds(1e-3).unwrap(), |e, _| {
+        let o = e.plant.observe();
+        if first.is_none() && o.conduction.w == Conduction::DiodeLow {
+            first = Some(o.t_s);
+        }
+    })
+    .unwrap();
+    first.expect("e_w goes negative enough for the off-time clamp")
+}
+
+#[test]
+fn a_floating_terminal_reaching_its_clamp_is_located_in_time() {
+    // Reference: steps of 0.1 µs leave no room for a late detection.
+    let fine = first_w_clamp(0.1e-6);
+    let coarse = first_w_clamp(40e-6);
+    assert!((fine - coarse).abs() < 0.2e-6, "clamp at {coarse} s, reference {fine} s");
+}

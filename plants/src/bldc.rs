@@ -337,25 +337,25 @@ impl BldcPlant {
         match self.modes.get(p) {
             Conduction::DiodeLow => x[p.index()],
             Conduction::DiodeHigh => -x[p.index()],
-            Conduction::Open => -self
-                .circuit
-                .clamp_violation(s.v_term.get(p), s.i_shunt)
-                .abs(),
+            Conduction::Open => self.circuit.clamp_margin(s.v_term.get(p), s.i_shunt),
             _ => f64::INFINITY,
         }
     }
 
-    fn triggered(&self, x: &State, s: &Solution) -> Option<Phase> {
-        Phase::ALL.into_iter().find(|&p| {
-            let g = self.event_margin(x, s, p);
-            g < 0.0 || (g == 0.0 && self.modes.get(p).is_diode())
+    /// The phases whose event function went negative over the step from `x0` to `x`. An
+    /// open terminal already outside the clamps at the start (the network refused the
+    /// diode) is not an event.
+    fn triggered(&self, x0: &State, x: &State, s: &Solution) -> [bool; 3] {
+        Phase::ALL.map(|p| {
+            self.event_margin(x, s, p) < 0.0
+                && (self.modes.get(p) != Conduction::Open || self.event_margin(x0, &self.start, p) >= 0.0)
         })
     }
 
     /// Where a freewheeling diode's current crosses zero inside a step, from the step's
     /// cubic Hermite dense output (fourth-order accurate, like the step itself). Returns the
-    /// fraction of the step and the interpolated state there.
-    fn locate_diode(&mut self, d: &Dense, p: Phase) -> (f64, State) {
+    /// fraction of the step.
+    fn locate_diode(&self, d: &Dense, p: Phase) -> f64 {
         let k = p.index();
         let sign = if self.modes.get(p) == Conduction::DiodeLow {
             1.0
@@ -365,13 +365,13 @@ impl BldcPlant {
         let g = |s: f64| sign * d.component(k, s);
         let (mut a, mut b) = (0.0, 1.0);
         if g(0.0) <= 0.0 {
-            return (0.0, d.x0);
+            return 0.0;
         }
         for _ in 0..48 {
             let m = 0.5 * (a + b);
             if g(m) > 0.0 { a = m } else { b = m }
         }
-        (b, d.at(b))
+        b
     }
 
     /// Earliest h in (0, h_full] where phase p's event function reaches zero.
@@ -514,7 +514,13 @@ impl BldcPlant {
                 let k = p.index();
                 let residual = self.x[k];
                 self.x[k] = 0.0;
-                if let Some(q) = Phase::ALL
+                let others = Phase::ALL.iter().filter(|&&q| q != p && self.modes.get(q).conducts()).count();
+                if others == 1 {
+                    // Two-phase conduction: the other current is minus this one, zero too.
+                    for q in Phase::ALL.into_iter().filter(|&q| q != p && self.modes.get(q).conducts()) {
+                        self.x[q.index()] = 0.0;
+                    }
+                } else if let Some(q) = Phase::ALL
                     .into_iter()
                     .filter(|&q| q != p && self.modes.get(q).conducts())
                     .max_by(|a, b| self.x[a.index()].abs().total_cmp(&self.x[b.index()].abs()))
@@ -634,31 +640,31 @@ impl Plant for BldcPlant {
             let mut event = None;
             let mut dense = None;
             if self.same_instant_events < 8 {
-                if let Some(p) = self.triggered(&x1, &s1) {
-                    let d = if self.modes.get(p).is_diode() {
-                        let d = Dense {
-                            x0,
-                            f0,
-                            x1,
-                            f1: self.deriv_at(&x1),
-                            h: t1 - t0,
+                let hit = self.triggered(&x0, &x1, &s1);
+                if hit.contains(&true) {
+                    // Locate every event of the step and keep the earliest.
+                    let h_full = t1 - t0;
+                    let d = Dense { x0, f0, x1, f1: self.deriv_at(&x1), h: h_full };
+                    let mut first: Option<(f64, Phase)> = None;
+                    for p in Phase::ALL.into_iter().filter(|p| hit[p.index()]) {
+                        let h = if self.modes.get(p).is_diode() {
+                            self.locate_diode(&d, p) * h_full
+                        } else {
+                            self.locate(&x0, h_full, p)
                         };
-                        let (frac, x) = self.locate_diode(&d, p);
-                        x1 = x;
-                        t1 = t0 + frac * d.h;
+                        if first.is_none_or(|(h0, _)| h < h0) {
+                            first = Some((h, p));
+                        }
+                    }
+                    let (h, p) = first.expect("at least one event");
+                    let d = if self.modes.get(p).is_diode() {
+                        x1 = d.at(h / h_full);
                         d
                     } else {
-                        let h = self.locate(&x0, t1 - t0, p);
                         x1 = self.rk4(&x0, h);
-                        t1 = t0 + h;
-                        Dense {
-                            x0,
-                            f0,
-                            x1,
-                            f1: self.deriv_at(&x1),
-                            h,
-                        }
+                        Dense { x0, f0, x1, f1: self.deriv_at(&x1), h }
                     };
+                    t1 = t0 + h;
                     s1 = self.solve_at(&x1);
                     event = Some(p);
                     dense = Some(d);

@@ -240,6 +240,14 @@ impl Circuit {
         }
     }
 
+    /// Signed distance of an open terminal from the nearer diode clamp [V]: > 0 inside
+    /// [low rail − V_f, V_DD + V_f], < 0 outside.
+    pub fn clamp_margin(&self, v_term: f64, i_shunt: f64) -> f64 {
+        let lo = self.r_sh * i_shunt - self.vf;
+        let hi = self.vdd + self.vf;
+        (v_term - lo).min(hi - v_term)
+    }
+
     /// How far an open terminal is outside the diode clamps [V]: > 0 above V_DD + V_f,
     /// < 0 below the low rail − V_f, 0 inside.
     pub fn clamp_violation(&self, v_term: f64, i_shunt: f64) -> f64 {
@@ -278,7 +286,8 @@ impl Circuit {
             for p in Phase::ALL {
                 let open = !modes.get(p).conducts();
                 let viol = self.clamp_violation(sol.v_term.get(p), sol.i_shunt);
-                if open && viol.abs() > 1e-9 && worst.is_none_or(|(_, w)| viol.abs() > w.abs()) {
+                // Any violation counts: the event locator stops just past the clamp.
+                if open && viol != 0.0 && worst.is_none_or(|(_, w)| viol.abs() > w.abs()) {
                     worst = Some((p, viol));
                 }
             }
