@@ -419,3 +419,39 @@ fn a_floating_terminal_reaching_its_clamp_is_located_in_time() {
     let coarse = first_w_clamp(40e-6);
     assert!((fine - coarse).abs() < 0.2e-6, "clamp at {coarse} s, reference {fine} s");
 }
+
+#[test]
+fn simultaneous_freewheels_each_end_at_their_own_zero() {
+    // u→v,w at full duty, then everything off: u freewheels through its low diode, v and w
+    // through their high diodes, each until its own current reaches zero.
+    for start_deg in [0.0f64, 40.0, 95.0, 170.0, 260.0] {
+        let ctl = Switch {
+            at: Ticks::from_seconds(2e-3).unwrap(),
+            before: hold("VGG", 2000, Abc::splat(false)),
+            after: Command::OFF,
+        };
+        let mut eng = engine(PlantParams::default(), ctl);
+        eng.plant.set_rotor(start_deg.to_radians(), 1000.0, true);
+        let mut last = eng.plant.observe().conduction;
+        eng.run_until(Ticks::from_seconds(3e-3).unwrap(), |e, _| {
+            let o = e.plant.observe();
+            for p in bldc_drive::drive_core::Phase::ALL {
+                let (a, b) = (last.get(p), o.conduction.get(p));
+                let flipped = matches!(
+                    (a, b),
+                    (Conduction::DiodeHigh, Conduction::DiodeLow) | (Conduction::DiodeLow, Conduction::DiodeHigh)
+                );
+                assert!(!flipped, "phase {} jumped diode {a:?} → {b:?} at {} s (θ0 = {start_deg}°)", p.name(), o.t_s);
+                if b == Conduction::DiodeLow {
+                    assert!(o.i.get(p) >= 0.0);
+                }
+                if b == Conduction::DiodeHigh {
+                    assert!(o.i.get(p) <= 0.0);
+                }
+            }
+            last = o.conduction;
+        })
+        .unwrap();
+        assert_eq!(eng.plant.observe().i, Abc::splat(0.0), "all freewheels ended");
+    }
+}
