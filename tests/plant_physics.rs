@@ -455,3 +455,38 @@ fn simultaneous_freewheels_each_end_at_their_own_zero() {
         assert_eq!(eng.plant.observe().i, Abc::splat(0.0), "all freewheels ended");
     }
 }
+
+/// Reads the ADC whenever the watched comparator wakes it.
+struct AdcReader {
+    reads: Vec<(Ticks, u16)>,
+}
+
+impl bldc_drive::drive_core::Controller for AdcReader {
+    fn clock(&self) -> Ticks {
+        Ticks(32)
+    }
+    fn tick(&mut self, now: Ticks, s: &bldc_drive::drive_core::Sensed) -> Command {
+        self.reads.push((now, s.current_code));
+        hold("VGF", 2000, Abc { u: false, v: false, w: true })
+    }
+}
+
+#[test]
+fn adc_readings_at_sensing_stops_come_from_the_past_not_the_future() {
+    // Short conversions and long solver steps: many conversions fall inside one step.
+    let mut params = PlantParams::default();
+    params.sensing.current.adc_conversion_s = 5e-6;
+    params.solver.max_step_s = 100e-6;
+    params.power_stage.supply_v = 4.0;
+    let mut eng = engine(params, AdcReader { reads: Vec::new() });
+    eng.plant.set_rotor(0.0, 3000.0, true);
+    let amps_per_code = eng.plant.current_sense().amps_per_code();
+    eng.run_until(Ticks::from_seconds(20e-3).unwrap(), |_, _| {}).unwrap();
+    let reads: Vec<_> = eng.controller.reads.iter().filter(|r| r.0.seconds() > 2e-3).collect();
+    assert!(reads.len() >= 5, "the comparator woke the controller: {reads:?}");
+    for (t, code) in reads {
+        // u→v at full duty: 4 V minus back-EMF over 5 Ω gives 0.2 .. 0.8 A, never 0.
+        let amps = *code as f64 * amps_per_code;
+        assert!(amps > 0.1, "reading {code} at {} s", t.seconds());
+    }
+}

@@ -130,7 +130,10 @@ struct Lookahead {
     t1: f64,
     x1: State,
     s1: Solution,
-    cur0: CurrentSense,
+    /// How far the current-sense chain has been advanced (it follows the served time, so
+    /// ADC readings never come from beyond it): time and shunt current there.
+    cur_t: f64,
+    cur_i: f64,
     event: Option<Phase>,
 }
 
@@ -544,12 +547,16 @@ impl BldcPlant {
 
     /// Moves the reported time to `t` inside the lookahead step (interpolated state).
     fn serve_at(&mut self, t: f64) {
-        if let Some(la) = &self.lookahead {
-            self.x = la.dense.at((t - la.t0) / la.dense.h);
-            if !(0.0..TAU).contains(&self.x[THETA]) {
-                self.x[THETA] = self.x[THETA].rem_euclid(TAU);
-            }
-            self.t = t;
+        let Some(la) = &self.lookahead else { return };
+        self.x = la.dense.at((t - la.t0) / la.dense.h);
+        if !(0.0..TAU).contains(&self.x[THETA]) {
+            self.x[THETA] = self.x[THETA].rem_euclid(TAU);
+        }
+        self.t = t;
+        let i_sh = self.solve_at(&self.x).i_shunt;
+        if let Some(la) = &mut self.lookahead {
+            self.cur.update(la.cur_t, t, la.cur_i, i_sh);
+            (la.cur_t, la.cur_i) = (t, i_sh);
         }
     }
 
@@ -570,6 +577,7 @@ impl BldcPlant {
             return Some(PlantStop::Reached);
         }
         let la = self.lookahead.take()?;
+        self.cur.update(la.cur_t, la.t1, la.cur_i, la.s1.i_shunt);
         self.finish_step(la.x1, la.t0, la.t1, la.s1, la.event)
     }
 
@@ -578,11 +586,9 @@ impl BldcPlant {
         if let Some(la) = self.lookahead.take() {
             let (now, _) = Self::ceil_tick(self.t);
             self.cmp.truncate_at(now);
-            let s = self.solve_at(&self.x);
-            self.cur = la.cur0;
-            self.cur
-                .update(la.t0, self.t, self.start.i_shunt, s.i_shunt);
-            self.start = s;
+            // The current sense already stands at the present time (see `serve_at`).
+            debug_assert!((la.cur_t - self.t).abs() < 1e-15);
+            self.start = self.solve_at(&self.x);
             self.same_instant_events = 0;
             self.stats.retries += 1;
         }
@@ -670,7 +676,6 @@ impl Plant for BldcPlant {
                     dense = Some(d);
                 }
             }
-            let cur0 = self.cur;
             self.cmp.update(
                 t0,
                 t1,
@@ -679,7 +684,6 @@ impl Plant for BldcPlant {
                 &s1.v_term,
                 s1.v_n,
             );
-            self.cur.update(t0, t1, self.start.i_shunt, s1.i_shunt);
             if let Some(e) = self.pending_sample(watch, now) {
                 if e.seconds() < t1 - 1e-15 {
                     // A watched output changed inside the step: report it at the clock edge
@@ -700,7 +704,8 @@ impl Plant for BldcPlant {
                         t1,
                         x1,
                         s1,
-                        cur0,
+                        cur_t: t0,
+                        cur_i: self.start.i_shunt,
                         event,
                     });
                     self.serve_at(e.seconds());
@@ -708,6 +713,7 @@ impl Plant for BldcPlant {
                     return PlantStop::Sensing(e);
                 }
             }
+            self.cur.update(t0, t1, self.start.i_shunt, s1.i_shunt);
             if let Some(stop) = self.finish_step(x1, t0, t1, s1, event) {
                 return stop;
             }
