@@ -17,80 +17,60 @@ use super::noise;
 use crate::params::ComparatorParams;
 use drive_core::{Abc, Phase, TICK_S, Ticks};
 
-const HISTORY: usize = 32;
+/// Toggles kept without reallocating; more are kept too (the buffer grows), since every
+/// toggle that may still be read must stay.
+const HISTORY: usize = 64;
 
-/// Recent toggles of one comparator, to apply the propagation delay.
-#[derive(Copy, Clone, Debug)]
+/// Recent toggles of one comparator, oldest first, to apply the propagation delay.
+/// Toggles are dropped only once no query can reach them (see [`History::forget_before`]).
+#[derive(Clone, Debug)]
 struct History {
-    ticks: [u64; HISTORY],
-    states: [bool; HISTORY],
-    len: usize,
-    head: usize,
+    toggles: std::collections::VecDeque<(u64, bool)>,
     /// State before the oldest retained toggle.
     base: bool,
 }
 
 impl History {
     fn new(state: bool) -> Self {
-        History {
-            ticks: [0; HISTORY],
-            states: [false; HISTORY],
-            len: 0,
-            head: 0,
-            base: state,
-        }
+        History { toggles: std::collections::VecDeque::with_capacity(HISTORY), base: state }
     }
 
     fn push(&mut self, tick: u64, state: bool) {
-        if self.len == HISTORY {
-            let oldest = (self.head + HISTORY - self.len) % HISTORY;
-            self.base = self.states[oldest];
-            self.len -= 1;
-        }
-        self.ticks[self.head] = tick;
-        self.states[self.head] = state;
-        self.head = (self.head + 1) % HISTORY;
-        self.len += 1;
+        self.toggles.push_back((tick, state));
     }
 
-    /// (tick, state) of the k-th newest toggle (k = 0 newest).
-    fn newest(&self, k: usize) -> (u64, bool) {
-        let idx = (self.head + HISTORY - 1 - k) % HISTORY;
-        (self.ticks[idx], self.states[idx])
+    fn newest(&self) -> Option<(u64, bool)> {
+        self.toggles.back().copied()
     }
 
     fn state_at(&self, tick: u64) -> bool {
-        for k in 0..self.len {
-            let (t, s) = self.newest(k);
-            if t <= tick {
-                return s;
-            }
-        }
-        self.base
+        self.toggles.iter().rev().find(|t| t.0 <= tick).map_or(self.base, |t| t.1)
     }
 
     /// Earliest toggle tick strictly after `tick`.
     fn first_after(&self, tick: u64) -> Option<u64> {
-        let mut found = None;
-        for k in 0..self.len {
-            let (t, _) = self.newest(k);
-            if t <= tick {
-                break;
-            }
-            found = Some(t);
-        }
-        found
+        self.toggles.iter().rev().take_while(|t| t.0 > tick).last().map(|t| t.0)
     }
 
-    /// Removes toggles after `tick` (used when an interval is integrated again, shorter).
+    /// Removes toggles after `tick` (when a step is cut short); returns how many.
     fn truncate_after(&mut self, tick: u64) -> u64 {
         let mut removed = 0;
-        while self.len > 0 && self.newest(0).0 > tick {
-            self.head = (self.head + HISTORY - 1) % HISTORY;
-            self.len -= 1;
+        while self.toggles.back().is_some_and(|t| t.0 > tick) {
+            self.toggles.pop_back();
             removed += 1;
         }
         removed
+    }
+
+    /// Folds toggles at or before `tick` into the base state: no query reaches further back.
+    fn forget_before(&mut self, tick: u64) {
+        while let Some(&(t, s)) = self.toggles.front() {
+            if t > tick {
+                break;
+            }
+            self.base = s;
+            self.toggles.pop_front();
+        }
     }
 }
 
@@ -110,7 +90,7 @@ struct Channel {
 }
 
 /// The three comparators, their filters, the coupled ringing and the noise.
-#[derive(Copy, Clone, Debug)]
+#[derive(Clone, Debug)]
 pub struct ComparatorBank {
     tau_p: f64,
     tau_n: f64,
@@ -257,6 +237,11 @@ impl ComparatorBank {
         if h <= 0.0 {
             return;
         }
+        // Nothing before t0 − delay can be read any more (queries are at t0 or later).
+        let horizon = ((t0 / TICK_S + 1e-6).floor() as u64).saturating_sub(self.delay);
+        for hist in &mut self.hist {
+            hist.forget_before(horizon);
+        }
         if self.ring_mag != 0.0 && self.ring_envelope(t0) < 1e-9 {
             // Decayed below a nanovolt: drop it so later bounds skip the envelope.
             self.ring = (0.0, 0.0);
@@ -313,7 +298,7 @@ impl ComparatorBank {
             *self.y.get_mut(x) = self.last.0[x.index()].at(tau);
             let h = &mut self.hist[x.index()];
             self.toggles -= h.truncate_after(t.0);
-            *self.out.get_mut(x) = if h.len > 0 { h.newest(0).1 } else { h.base };
+            *self.out.get_mut(x) = h.newest().map_or(h.base, |t| t.1);
         }
         self.y_n = self.last.1.at(tau);
     }
@@ -515,5 +500,58 @@ impl ComparatorBank {
     /// Filter outputs (phase paths, neutral path) [V], for traces.
     pub fn filtered(&self) -> (Abc<f64>, f64) {
         (self.y, self.y_n)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A noisy comparator sitting on its threshold toggles every few ticks.
+    fn chattering() -> ComparatorParams {
+        ComparatorParams {
+            offset_v: Abc::splat(0.0),
+            hysteresis_v: 0.0,
+            noise_v: 5e-3,
+            noise_interval_s: 20e-9,
+            ring_gain: 0.0,
+            delay_s: 2e-6,
+            ..ComparatorParams::default()
+        }
+    }
+
+    #[test]
+    fn one_long_update_equals_many_short_ones_however_many_toggles() {
+        let p = chattering();
+        let v = Abc::splat(0.0);
+        let mut long = ComparatorBank::new(&p, 7, &v, 0.0);
+        let mut short = ComparatorBank::new(&p, 7, &v, 0.0);
+        let n = 2000u64;
+        long.update(0.0, n as f64 * TICK_S, &v, 0.0, &v, 0.0);
+        let w = Abc::splat(true);
+        for k in 0..n {
+            // Queried at each instant as the engine would, before the plant moves on.
+            let t = Ticks(k);
+            assert_eq!(long.outputs_at(t), short.outputs_at(t), "tick {k}");
+            if k > 0 {
+                assert_eq!(long.next_visible_change(t, w), short.next_visible_change(t, w), "tick {k}");
+            }
+            short.update(k as f64 * TICK_S, (k + 1) as f64 * TICK_S, &v, 0.0, &v, 0.0);
+        }
+        assert!(long.toggle_count() > 500, "chatter expected: {}", long.toggle_count());
+        assert_eq!(long.toggle_count(), short.toggle_count());
+    }
+
+    #[test]
+    fn filters_settle_to_the_input_and_the_output_follows_its_sign() {
+        let p = ComparatorParams { noise_v: 0.0, ring_gain: 0.0, ..ComparatorParams::default() };
+        let lo = Abc::splat(0.0);
+        let hi = Abc { u: 0.5, v: -0.5, w: 0.5 };
+        let mut c = ComparatorBank::new(&p, 1, &lo, 0.0);
+        c.update(0.0, 20e-6, &hi, 0.0, &hi, 0.0);
+        let (y, yn) = c.filtered();
+        assert!((y.u - 0.5).abs() < 1e-6 && (y.v + 0.5).abs() < 1e-6 && yn.abs() < 1e-12);
+        let out = c.outputs_at(Ticks(1000));
+        assert!(out.u && !out.v && out.w, "{out:?}");
     }
 }
