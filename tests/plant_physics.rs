@@ -490,3 +490,33 @@ fn adc_readings_at_sensing_stops_come_from_the_past_not_the_future() {
         assert!(amps > 0.1, "reading {code} at {} s", t.seconds());
     }
 }
+
+/// Records the instants it is clocked at.
+struct Recording {
+    inner: OpenLoopSixStep,
+    ticks: Vec<Ticks>,
+}
+
+impl bldc_drive::drive_core::Controller for Recording {
+    fn clock(&self) -> Ticks {
+        self.inner.clock()
+    }
+    fn tick(&mut self, now: Ticks, s: &bldc_drive::drive_core::Sensed) -> Command {
+        self.ticks.push(now);
+        self.inner.tick(now, s)
+    }
+}
+
+#[test]
+fn a_clocked_controller_never_runs_twice_at_one_edge() {
+    let step = Ticks::from_seconds(1.0 / (3000.0 / 60.0 * 36.0)).unwrap();
+    let ctl = Recording { inner: OpenLoopSixStep::new(step, 1000, 1), ticks: Vec::new() };
+    let mut eng = engine(PlantParams::default(), ctl);
+    eng.plant.set_rotor(0.5, 3000.0, true);
+    eng.run_until(Ticks::from_seconds(10e-3).unwrap(), |_, _| {}).unwrap();
+    let t = &eng.controller.ticks;
+    assert!(t.len() > 100);
+    // Watched-channel changes wake it, and it changes what it watches at every step.
+    assert!(t.windows(2).all(|w| w[0] < w[1]), "repeated or backward tick");
+    assert!(t.iter().all(|k| k.0 % 32 == 0));
+}

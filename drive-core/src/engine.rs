@@ -60,6 +60,7 @@ pub struct Engine<P, C, S> {
     wake: Ticks,
     sample_period: Ticks,
     started: bool,
+    last_tick: Option<Ticks>,
 }
 
 impl<P: Plant, C: Controller, S: PwmScheme> Engine<P, C, S> {
@@ -77,6 +78,7 @@ impl<P: Plant, C: Controller, S: PwmScheme> Engine<P, C, S> {
             wake: Ticks::ZERO,
             sample_period: Ticks::NEVER,
             started: false,
+            last_tick: None,
         }
     }
 
@@ -139,7 +141,12 @@ impl<P: Plant, C: Controller, S: PwmScheme> Engine<P, C, S> {
         match self.plant.advance(target, watch) {
             PlantStop::Diode => Ok(StopReason::Diode),
             PlantStop::Sensing(at) => {
-                self.wake = self.wake.min(at.next_edge(self.controller.clock()));
+                let edge = at.next_edge(self.controller.clock());
+                // A change the controller already sampled (it ran at or after that edge, e.g.
+                // a channel it just started watching) must not clock it twice.
+                if self.last_tick.is_none_or(|t| edge > t) {
+                    self.wake = self.wake.min(edge);
+                }
                 Ok(StopReason::Sensing)
             }
             PlantStop::Reached => {
@@ -180,6 +187,7 @@ impl<P: Plant, C: Controller, S: PwmScheme> Engine<P, C, S> {
     /// Everything due at instant `t`: controller tick, PWM state, gate-driver releases.
     fn act(&mut self, t: Ticks, tick: bool, released: bool) -> Result<(), EngineError> {
         if tick {
+            self.last_tick = Some(t);
             let sensed = self.plant.sensed(t);
             self.cmd = self.controller.tick(t, &sensed);
             let clock = self.controller.clock();
