@@ -417,7 +417,10 @@ fn a_floating_terminal_reaching_its_clamp_is_located_in_time() {
     // Reference: steps of 0.1 µs leave no room for a late detection.
     let fine = first_w_clamp(0.1e-6);
     let coarse = first_w_clamp(40e-6);
-    assert!((fine - coarse).abs() < 0.2e-6, "clamp at {coarse} s, reference {fine} s");
+    assert!(
+        (fine - coarse).abs() < 0.2e-6,
+        "clamp at {coarse} s, reference {fine} s"
+    );
 }
 
 #[test]
@@ -439,9 +442,15 @@ fn simultaneous_freewheels_each_end_at_their_own_zero() {
                 let (a, b) = (last.get(p), o.conduction.get(p));
                 let flipped = matches!(
                     (a, b),
-                    (Conduction::DiodeHigh, Conduction::DiodeLow) | (Conduction::DiodeLow, Conduction::DiodeHigh)
+                    (Conduction::DiodeHigh, Conduction::DiodeLow)
+                        | (Conduction::DiodeLow, Conduction::DiodeHigh)
                 );
-                assert!(!flipped, "phase {} jumped diode {a:?} → {b:?} at {} s (θ0 = {start_deg}°)", p.name(), o.t_s);
+                assert!(
+                    !flipped,
+                    "phase {} jumped diode {a:?} → {b:?} at {} s (θ0 = {start_deg}°)",
+                    p.name(),
+                    o.t_s
+                );
                 if b == Conduction::DiodeLow {
                     assert!(o.i.get(p) >= 0.0);
                 }
@@ -452,7 +461,11 @@ fn simultaneous_freewheels_each_end_at_their_own_zero() {
             last = o.conduction;
         })
         .unwrap();
-        assert_eq!(eng.plant.observe().i, Abc::splat(0.0), "all freewheels ended");
+        assert_eq!(
+            eng.plant.observe().i,
+            Abc::splat(0.0),
+            "all freewheels ended"
+        );
     }
 }
 
@@ -467,7 +480,15 @@ impl bldc_drive::drive_core::Controller for AdcReader {
     }
     fn tick(&mut self, now: Ticks, s: &bldc_drive::drive_core::Sensed) -> Command {
         self.reads.push((now, s.current_code));
-        hold("VGF", 2000, Abc { u: false, v: false, w: true })
+        hold(
+            "VGF",
+            2000,
+            Abc {
+                u: false,
+                v: false,
+                w: true,
+            },
+        )
     }
 }
 
@@ -481,9 +502,18 @@ fn adc_readings_at_sensing_stops_come_from_the_past_not_the_future() {
     let mut eng = engine(params, AdcReader { reads: Vec::new() });
     eng.plant.set_rotor(0.0, 3000.0, true);
     let amps_per_code = eng.plant.current_sense().amps_per_code();
-    eng.run_until(Ticks::from_seconds(20e-3).unwrap(), |_, _| {}).unwrap();
-    let reads: Vec<_> = eng.controller.reads.iter().filter(|r| r.0.seconds() > 2e-3).collect();
-    assert!(reads.len() >= 5, "the comparator woke the controller: {reads:?}");
+    eng.run_until(Ticks::from_seconds(20e-3).unwrap(), |_, _| {})
+        .unwrap();
+    let reads: Vec<_> = eng
+        .controller
+        .reads
+        .iter()
+        .filter(|r| r.0.seconds() > 2e-3)
+        .collect();
+    assert!(
+        reads.len() >= 5,
+        "the comparator woke the controller: {reads:?}"
+    );
     for (t, code) in reads {
         // u→v at full duty: 4 V minus back-EMF over 5 Ω gives 0.2 .. 0.8 A, never 0.
         let amps = *code as f64 * amps_per_code;
@@ -510,13 +540,40 @@ impl bldc_drive::drive_core::Controller for Recording {
 #[test]
 fn a_clocked_controller_never_runs_twice_at_one_edge() {
     let step = Ticks::from_seconds(1.0 / (3000.0 / 60.0 * 36.0)).unwrap();
-    let ctl = Recording { inner: OpenLoopSixStep::new(step, 1000, 1), ticks: Vec::new() };
+    let ctl = Recording {
+        inner: OpenLoopSixStep::new(step, 1000, 1),
+        ticks: Vec::new(),
+    };
     let mut eng = engine(PlantParams::default(), ctl);
     eng.plant.set_rotor(0.5, 3000.0, true);
-    eng.run_until(Ticks::from_seconds(10e-3).unwrap(), |_, _| {}).unwrap();
+    eng.run_until(Ticks::from_seconds(10e-3).unwrap(), |_, _| {})
+        .unwrap();
     let t = &eng.controller.ticks;
     assert!(t.len() > 100);
     // Watched-channel changes wake it, and it changes what it watches at every step.
-    assert!(t.windows(2).all(|w| w[0] < w[1]), "repeated or backward tick");
+    assert!(
+        t.windows(2).all(|w| w[0] < w[1]),
+        "repeated or backward tick"
+    );
     assert!(t.iter().all(|k| k.0 % 32 == 0));
+}
+
+#[test]
+fn a_speed_locked_rotor_balances_through_the_dynamometer() {
+    let step = Ticks::from_seconds(1.0 / (2000.0 / 60.0 * 36.0)).unwrap();
+    let mut eng = engine(PlantParams::default(), OpenLoopSixStep::new(step, 700, 1));
+    eng.plant.set_rotor(0.0, 2000.0, true);
+    eng.plant.set_load_torque(1e-4);
+    eng.run_until(Ticks::from_seconds(20e-3).unwrap(), |_, _| {})
+        .unwrap();
+    let e = eng.plant.energy();
+    let mech = e.friction + e.load + e.dynamometer;
+    assert!(e.airgap.abs() > 1e-4 && e.dynamometer != 0.0, "{e:?}");
+    assert!(
+        (e.airgap - mech).abs() < 1e-9 * e.airgap.abs().max(1e-3),
+        "{e:?}"
+    );
+    let out = e.copper + e.switch + e.diode + e.shunt + e.airgap + e.magnetic;
+    // 1 % is the requirement; RK4's own error at 2000 rpm is a few parts per million.
+    assert!((e.supply - out).abs() / e.supply.abs() < 1e-4, "{e:?}");
 }

@@ -18,7 +18,7 @@ use drive_core::{Abc, Gates, ParamError, Phase, Plant, PlantStop, Sensed, TICK_S
 use nalgebra::SVector;
 use std::f64::consts::TAU;
 
-const N: usize = 13;
+const N: usize = 14;
 type State = SVector<f64, N>;
 const OMEGA: usize = 3;
 const THETA: usize = 4;
@@ -43,6 +43,8 @@ pub struct EnergyLedger {
     pub load: f64,
     /// Electromechanical conversion ∫Σe·i.
     pub airgap: f64,
+    /// Absorbed by the dynamometer holding a speed-locked rotor ∫(Te − Bm·ωm − TL)·ωm.
+    pub dynamometer: f64,
     /// Magnetic energy stored now: ½(Lp + M)·Σi².
     pub magnetic: f64,
     /// Kinetic energy now: ½J·ωm².
@@ -179,7 +181,7 @@ impl BldcPlant {
         let circuit = Circuit::new(m, &params.power_stage);
         let x = State::zeros();
         let e = Abc::splat(0.0);
-        let modes = circuit.resolve(&Gates::OFF, &Abc::splat(0.0), &e);
+        let modes = circuit.resolve(&Gates::OFF, &Abc::splat(0.0), &e, None, None);
         let start = circuit.solve(&modes, &Abc::splat(0.0), &e);
         let cmp = ComparatorBank::new(
             &params.sensing.comparator,
@@ -291,10 +293,12 @@ impl BldcPlant {
         let (di, p) = self.lin.eval(&i, &e);
         let wm = x[OMEGA];
         let te = self.pp * self.lambda * (i[0] * f.u + i[1] * f.v + i[2] * f.w);
-        let dw = if self.speed_lock {
-            0.0
+        let net = te - self.friction * wm - self.load_nm;
+        // A locked rotor is held by a dynamometer, which absorbs the net torque.
+        let (dw, p_dyno) = if self.speed_lock {
+            (0.0, net * wm)
         } else {
-            (te - self.friction * wm - self.load_nm) / self.inertia
+            (net / self.inertia, 0.0)
         };
         State::from([
             di[0],
@@ -310,6 +314,7 @@ impl BldcPlant {
             self.friction * wm * wm,
             self.load_nm * wm,
             p.airgap,
+            p_dyno,
         ])
     }
 
@@ -351,7 +356,8 @@ impl BldcPlant {
     fn triggered(&self, x0: &State, x: &State, s: &Solution) -> [bool; 3] {
         Phase::ALL.map(|p| {
             self.event_margin(x, s, p) < 0.0
-                && (self.modes.get(p) != Conduction::Open || self.event_margin(x0, &self.start, p) >= 0.0)
+                && (self.modes.get(p) != Conduction::Open
+                    || self.event_margin(x0, &self.start, p) >= 0.0)
         })
     }
 
@@ -418,10 +424,19 @@ impl BldcPlant {
     }
 
     fn refresh_start(&mut self) {
+        self.refresh_start_at(None, None);
+    }
+
+    /// Re-resolves the conduction state after an event (see [`Circuit::resolve`]).
+    fn refresh_start_at(&mut self, at_clamp: Option<Phase>, keep_open: Option<Phase>) {
         let (_, e) = self.emf_of(&self.x);
-        self.modes = self
-            .circuit
-            .resolve(&self.gates, &Self::currents(&self.x), &e);
+        self.modes = self.circuit.resolve(
+            &self.gates,
+            &Self::currents(&self.x),
+            &e,
+            at_clamp,
+            keep_open,
+        );
         let m = self.modes.map(|c| c as usize);
         let idx = m.u * 25 + m.v * 5 + m.w;
         self.lin = match self.lin_cache[idx] {
@@ -488,6 +503,7 @@ impl BldcPlant {
             friction: x[E_SUPPLY + 5],
             load: x[E_SUPPLY + 6],
             airgap: x[E_SUPPLY + 7],
+            dynamometer: x[E_SUPPLY + 8],
             magnetic: 0.5 * self.inductance * (x[0] * x[0] + x[1] * x[1] + x[2] * x[2]),
             kinetic: 0.5 * self.inertia * x[OMEGA] * x[OMEGA],
         }
@@ -517,10 +533,16 @@ impl BldcPlant {
                 let k = p.index();
                 let residual = self.x[k];
                 self.x[k] = 0.0;
-                let others = Phase::ALL.iter().filter(|&&q| q != p && self.modes.get(q).conducts()).count();
+                let others = Phase::ALL
+                    .iter()
+                    .filter(|&&q| q != p && self.modes.get(q).conducts())
+                    .count();
                 if others == 1 {
                     // Two-phase conduction: the other current is minus this one, zero too.
-                    for q in Phase::ALL.into_iter().filter(|&q| q != p && self.modes.get(q).conducts()) {
+                    for q in Phase::ALL
+                        .into_iter()
+                        .filter(|&q| q != p && self.modes.get(q).conducts())
+                    {
                         self.x[q.index()] = 0.0;
                     }
                 } else if let Some(q) = Phase::ALL
@@ -536,7 +558,11 @@ impl BldcPlant {
             } else {
                 0
             };
-            self.refresh_start();
+            let was_open = self.modes.get(p) == Conduction::Open;
+            // A diode that had just been switched on at zero current and whose current would
+            // reverse at once never conducted: it stays open now instead of chattering.
+            let never_conducted = !was_open && t1 - t0 < 1e-12;
+            self.refresh_start_at(was_open.then_some(p), never_conducted.then_some(p));
             self.stats.diode_events += 1;
             return Some(PlantStop::Diode);
         }
@@ -545,13 +571,17 @@ impl BldcPlant {
         None
     }
 
+    fn wrap_theta(&mut self) {
+        if !(0.0..TAU).contains(&self.x[THETA]) {
+            self.x[THETA] = self.x[THETA].rem_euclid(TAU);
+        }
+    }
+
     /// Moves the reported time to `t` inside the lookahead step (interpolated state).
     fn serve_at(&mut self, t: f64) {
         let Some(la) = &self.lookahead else { return };
         self.x = la.dense.at((t - la.t0) / la.dense.h);
-        if !(0.0..TAU).contains(&self.x[THETA]) {
-            self.x[THETA] = self.x[THETA].rem_euclid(TAU);
-        }
+        self.wrap_theta();
         self.t = t;
         let i_sh = self.solve_at(&self.x).i_shunt;
         if let Some(la) = &mut self.lookahead {
@@ -573,7 +603,16 @@ impl BldcPlant {
             }
         }
         if t_end < t1 - 1e-15 {
-            self.serve_at(t_end.max(self.t));
+            if t_end <= self.t {
+                return Some(PlantStop::Reached);
+            }
+            self.serve_at(t_end);
+            if let Some(la) = &self.lookahead {
+                // An engine instant: take the state from RK4 itself, so the energy
+                // integrals are exactly consistent with the currents there.
+                self.x = self.rk4(&la.dense.x0, self.t - la.t0);
+                self.wrap_theta();
+            }
             return Some(PlantStop::Reached);
         }
         let la = self.lookahead.take()?;
@@ -586,8 +625,11 @@ impl BldcPlant {
         if let Some(la) = self.lookahead.take() {
             let (now, _) = Self::ceil_tick(self.t);
             self.cmp.truncate_at(now);
-            // The current sense already stands at the present time (see `serve_at`).
+            // The current sense already stands at the present time (see `serve_at`); the
+            // state is taken from RK4 itself, as at any instant where the dynamics change.
             debug_assert!((la.cur_t - self.t).abs() < 1e-15);
+            self.x = self.rk4(&la.dense.x0, self.t - la.t0);
+            self.wrap_theta();
             self.start = self.solve_at(&self.x);
             self.same_instant_events = 0;
             self.stats.retries += 1;
@@ -650,11 +692,25 @@ impl Plant for BldcPlant {
                 if hit.contains(&true) {
                     // Locate every event of the step and keep the earliest.
                     let h_full = t1 - t0;
-                    let d = Dense { x0, f0, x1, f1: self.deriv_at(&x1), h: h_full };
+                    let d = Dense {
+                        x0,
+                        f0,
+                        x1,
+                        f1: self.deriv_at(&x1),
+                        h: h_full,
+                    };
                     let mut first: Option<(f64, Phase)> = None;
                     for p in Phase::ALL.into_iter().filter(|p| hit[p.index()]) {
                         let h = if self.modes.get(p).is_diode() {
-                            self.locate_diode(&d, p) * h_full
+                            // The dense output's root is usually exact enough; where the
+                            // current approaches zero slowly it is not, and RK4 decides.
+                            let h = self.locate_diode(&d, p) * h_full;
+                            let x = self.rk4(&x0, h);
+                            if x[p.index()].abs() < 1e-9 {
+                                h
+                            } else {
+                                self.locate(&x0, h_full, p)
+                            }
                         } else {
                             self.locate(&x0, h_full, p)
                         };
@@ -663,12 +719,15 @@ impl Plant for BldcPlant {
                         }
                     }
                     let (h, p) = first.expect("at least one event");
-                    let d = if self.modes.get(p).is_diode() {
-                        x1 = d.at(h / h_full);
-                        d
-                    } else {
-                        x1 = self.rk4(&x0, h);
-                        Dense { x0, f0, x1, f1: self.deriv_at(&x1), h }
+                    // The step to the event is taken again with RK4 (not interpolated), so
+                    // the energy integrals stay consistent with the currents.
+                    x1 = self.rk4(&x0, h);
+                    let d = Dense {
+                        x0,
+                        f0,
+                        x1,
+                        f1: self.deriv_at(&x1),
+                        h,
                     };
                     t1 = t0 + h;
                     s1 = self.solve_at(&x1);

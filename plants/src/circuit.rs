@@ -266,7 +266,22 @@ impl Circuit {
     /// leg with current freewheels through the diode its current direction selects; an
     /// off leg without current is open unless its terminal would leave the clamps, in
     /// which case its diode starts conducting (if the network lets current flow that way).
-    pub fn resolve(&self, gates: &Gates, i: &Abc<f64>, e: &Abc<f64>) -> Abc<Conduction> {
+    ///
+    /// `at_clamp` names a phase whose terminal has just been located at a clamp (an event):
+    /// its diode is tried whatever the (rounding-size) violation. Elsewhere a violation below
+    /// 1 nV is a graze and does not switch a diode on. A diode is accepted only if its current
+    /// would grow in its conducting direction, so a terminal resting on a clamp cannot chatter.
+    ///
+    /// `keep_open` names a phase whose diode was just found not to conduct after all (its
+    /// current would reverse at once): it stays open at this instant.
+    pub fn resolve(
+        &self,
+        gates: &Gates,
+        i: &Abc<f64>,
+        e: &Abc<f64>,
+        at_clamp: Option<Phase>,
+        keep_open: Option<Phase>,
+    ) -> Abc<Conduction> {
         let mut modes = Abc::from_fn(|p| {
             if gates.high.get(p) {
                 Conduction::SwitchHigh
@@ -280,14 +295,24 @@ impl Circuit {
                 Conduction::Open
             }
         });
-        for _ in 0..3 {
+        for round in 0..3 {
             let sol = self.solve(&modes, i, e);
             let mut worst: Option<(Phase, f64)> = None;
             for p in Phase::ALL {
                 let open = !modes.get(p).conducts();
-                let viol = self.clamp_violation(sol.v_term.get(p), sol.i_shunt);
-                // Any violation counts: the event locator stops just past the clamp.
-                if open && viol != 0.0 && worst.is_none_or(|(_, w)| viol.abs() > w.abs()) {
+                let mut viol = self.clamp_violation(sol.v_term.get(p), sol.i_shunt);
+                if round == 0 && at_clamp == Some(p) && viol.abs() <= 1e-9 {
+                    // Located on the clamp: the nearer clamp is the one it reached.
+                    let v = sol.v_term.get(p);
+                    let mid = 0.5 * (self.r_sh * sol.i_shunt - self.vf + self.vdd + self.vf);
+                    viol = if v < mid { -2e-9 } else { 2e-9 };
+                }
+                let allowed = keep_open != Some(p);
+                if open
+                    && allowed
+                    && viol.abs() > 1e-9
+                    && worst.is_none_or(|(_, w)| viol.abs() > w.abs())
+                {
                     worst = Some((p, viol));
                 }
             }
@@ -316,8 +341,8 @@ impl Circuit {
             let consistent = Phase::ALL
                 .iter()
                 .all(|&q| match (modes.get(q), trial.get(q)) {
-                    (Conduction::Open, Conduction::DiodeLow) => s.di.get(q) >= 0.0,
-                    (Conduction::Open, Conduction::DiodeHigh) => s.di.get(q) <= 0.0,
+                    (Conduction::Open, Conduction::DiodeLow) => s.di.get(q) > 0.0,
+                    (Conduction::Open, Conduction::DiodeHigh) => s.di.get(q) < 0.0,
                     _ => true,
                 });
             if !consistent {
@@ -538,7 +563,7 @@ mod tests {
             v: 2.0,
             w: -4.0,
         };
-        let m = c.resolve(&g, &i, &e);
+        let m = c.resolve(&g, &i, &e, None, None);
         assert_eq!(m.u, Conduction::DiodeLow);
         assert_eq!(m.w, Conduction::DiodeLow);
     }

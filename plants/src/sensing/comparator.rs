@@ -32,7 +32,10 @@ struct History {
 
 impl History {
     fn new(state: bool) -> Self {
-        History { toggles: std::collections::VecDeque::with_capacity(HISTORY), base: state }
+        History {
+            toggles: std::collections::VecDeque::with_capacity(HISTORY),
+            base: state,
+        }
     }
 
     fn push(&mut self, tick: u64, state: bool) {
@@ -44,12 +47,21 @@ impl History {
     }
 
     fn state_at(&self, tick: u64) -> bool {
-        self.toggles.iter().rev().find(|t| t.0 <= tick).map_or(self.base, |t| t.1)
+        self.toggles
+            .iter()
+            .rev()
+            .find(|t| t.0 <= tick)
+            .map_or(self.base, |t| t.1)
     }
 
     /// Earliest toggle tick strictly after `tick`.
     fn first_after(&self, tick: u64) -> Option<u64> {
-        self.toggles.iter().rev().take_while(|t| t.0 > tick).last().map(|t| t.0)
+        self.toggles
+            .iter()
+            .rev()
+            .take_while(|t| t.0 > tick)
+            .last()
+            .map(|t| t.0)
     }
 
     /// Removes toggles after `tick` (when a step is cut short); returns how many.
@@ -534,19 +546,35 @@ mod tests {
             let t = Ticks(k);
             assert_eq!(long.outputs_at(t), short.outputs_at(t), "tick {k}");
             if k > 0 {
-                assert_eq!(long.next_visible_change(t, w), short.next_visible_change(t, w), "tick {k}");
+                assert_eq!(
+                    long.next_visible_change(t, w),
+                    short.next_visible_change(t, w),
+                    "tick {k}"
+                );
             }
             short.update(k as f64 * TICK_S, (k + 1) as f64 * TICK_S, &v, 0.0, &v, 0.0);
         }
-        assert!(long.toggle_count() > 500, "chatter expected: {}", long.toggle_count());
+        assert!(
+            long.toggle_count() > 500,
+            "chatter expected: {}",
+            long.toggle_count()
+        );
         assert_eq!(long.toggle_count(), short.toggle_count());
     }
 
     #[test]
     fn filters_settle_to_the_input_and_the_output_follows_its_sign() {
-        let p = ComparatorParams { noise_v: 0.0, ring_gain: 0.0, ..ComparatorParams::default() };
+        let p = ComparatorParams {
+            noise_v: 0.0,
+            ring_gain: 0.0,
+            ..ComparatorParams::default()
+        };
         let lo = Abc::splat(0.0);
-        let hi = Abc { u: 0.5, v: -0.5, w: 0.5 };
+        let hi = Abc {
+            u: 0.5,
+            v: -0.5,
+            w: 0.5,
+        };
         let mut c = ComparatorBank::new(&p, 1, &lo, 0.0);
         c.update(0.0, 20e-6, &hi, 0.0, &hi, 0.0);
         let (y, yn) = c.filtered();
