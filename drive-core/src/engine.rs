@@ -222,7 +222,7 @@ impl<P: Plant, C: Controller, S: PwmScheme> Engine<P, C, S> {
 mod tests {
     use super::*;
     use crate::abc::Abc;
-    use crate::bridge::LegState;
+    use crate::bridge::SIX_STEP_120;
     use crate::control::Sensed;
     use crate::pwm::HighSideChop;
 
@@ -299,11 +299,7 @@ mod tests {
 
     #[test]
     fn controller_runs_at_the_clock_edge_after_a_watched_change_and_when_asked() {
-        let pattern = Abc {
-            u: LegState::High,
-            v: LegState::Low,
-            w: LegState::Float,
-        };
+        let pattern = SIX_STEP_120[1]; // u = V, v = G, w = F
         let cmd = Command {
             pattern,
             duty: 100,
@@ -330,11 +326,7 @@ mod tests {
 
     #[test]
     fn pwm_edges_switch_the_gates_on_exact_ticks() {
-        let pattern = Abc {
-            u: LegState::High,
-            v: LegState::Low,
-            w: LegState::Float,
-        };
+        let pattern = SIX_STEP_120[1]; // u = V, v = G, w = F
         let cmd = Command {
             pattern,
             duty: 25,
