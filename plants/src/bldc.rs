@@ -735,6 +735,9 @@ impl Plant for BldcPlant {
                     dense = Some(d);
                 }
             }
+            let unreported = self.cmp.next_visible_change(self.reported, watch.channels);
+            self.cmp
+                .forget_history(Ticks((t0 / TICK_S + 1e-6).floor() as u64), unreported);
             self.cmp.update(
                 t0,
                 t1,

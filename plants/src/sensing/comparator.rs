@@ -249,11 +249,6 @@ impl ComparatorBank {
         if h <= 0.0 {
             return;
         }
-        // Nothing before t0 − delay can be read any more (queries are at t0 or later).
-        let horizon = ((t0 / TICK_S + 1e-6).floor() as u64).saturating_sub(self.delay);
-        for hist in &mut self.hist {
-            hist.forget_before(horizon);
-        }
         if self.ring_mag != 0.0 && self.ring_envelope(t0) < 1e-9 {
             // Decayed below a nanovolt: drop it so later bounds skip the envelope.
             self.ring = (0.0, 0.0);
@@ -300,6 +295,19 @@ impl ComparatorBank {
         self.y_n = fn_.at_decayed(h, w[3]);
         self.last.1 = fn_;
         self.last.2 = t0;
+    }
+
+    /// Forgets toggles no query can reach any more: queries come at `now` or later, so
+    /// nothing before `now` − delay is read, except a change not yet reported to the
+    /// controller (visible at `unreported`), which must still be found.
+    pub fn forget_history(&mut self, now: Ticks, unreported: Option<Ticks>) {
+        let mut horizon = now.0.saturating_sub(self.delay);
+        if let Some(v) = unreported {
+            horizon = horizon.min(v.0.saturating_sub(self.delay + 1));
+        }
+        for hist in &mut self.hist {
+            hist.forget_before(horizon);
+        }
     }
 
     /// Cuts the last update short at `t` (a tick instant inside it): toggles after `t` are
@@ -560,6 +568,25 @@ mod tests {
             long.toggle_count()
         );
         assert_eq!(long.toggle_count(), short.toggle_count());
+    }
+
+    #[test]
+    fn history_keeps_a_change_the_controller_has_not_been_told_about() {
+        let p = chattering();
+        let v = Abc::splat(0.0);
+        let mut c = ComparatorBank::new(&p, 7, &v, 0.0);
+        c.update(0.0, 1000.0 * TICK_S, &v, 0.0, &v, 0.0);
+        let all = Abc::splat(true);
+        let first = c.next_visible_change(Ticks(0), all).expect("chatter");
+        // Long after it became visible, but unreported: it must still be found.
+        c.forget_history(Ticks(5000), Some(first));
+        assert_eq!(c.next_visible_change(Ticks(0), all), Some(first));
+        // Once reported, everything before the query horizon may go.
+        c.forget_history(Ticks(5000), None);
+        assert!(
+            c.next_visible_change(Ticks(0), all)
+                .is_none_or(|t| t > first)
+        );
     }
 
     #[test]
