@@ -163,6 +163,8 @@ pub struct BldcPlant {
     cmp: ComparatorBank,
     cur: CurrentSense,
     same_instant_events: u32,
+    /// Phases whose events are ignored for one step (see `finish_step`).
+    muted: [bool; 3],
     /// The network's affine form for the present conduction state, and a cache of all 125.
     lin: Linearised,
     lin_cache: Vec<Option<Linearised>>,
@@ -209,6 +211,7 @@ impl BldcPlant {
             cmp,
             cur,
             same_instant_events: 0,
+            muted: [false; 3],
             lin: circuit.linearise(&modes),
             lin_cache: vec![None; 125],
             reported: Ticks::ZERO,
@@ -373,8 +376,15 @@ impl BldcPlant {
         };
         let g = |s: f64| sign * d.component(k, s);
         let (mut a, mut b) = (0.0, 1.0);
-        if g(0.0) <= 0.0 {
+        if g(0.0) < 0.0 {
             return 0.0;
+        }
+        if g(0.0) == 0.0 {
+            // Switched on at zero current: the pulse may rise and end inside the step.
+            match (1..=32).map(|k| k as f64 / 32.0).find(|&s| g(s) > 0.0) {
+                Some(s) => a = s,
+                None => return 0.0,
+            }
         }
         for _ in 0..48 {
             let m = 0.5 * (a + b);
@@ -392,8 +402,19 @@ impl BldcPlant {
         };
         let (mut a, mut fa) = (0.0, self.event_margin(x0, &self.start, p));
         let (mut b, mut fb) = (h_full, g(self, h_full));
-        if fa <= 0.0 {
+        if fa < 0.0 {
             return 0.0;
+        }
+        if fa == 0.0 {
+            // Starting exactly on the boundary: find where the step first moves inside.
+            match (1..8)
+                .map(|k| k as f64 * h_full / 8.0)
+                .map(|h| (h, g(self, h)))
+                .find(|&(_, v)| v > 0.0)
+            {
+                Some((h, v)) => (a, fa) = (h, v),
+                None => return 0.0,
+            }
         }
         let mut side = 0i8;
         for _ in 0..60 {
@@ -558,6 +579,11 @@ impl BldcPlant {
             } else {
                 0
             };
+            if self.same_instant_events >= 4 {
+                // Zero-length events repeating at one instant: this phase's event is ignored
+                // for the next step, while every other phase is still watched.
+                self.muted[p.index()] = true;
+            }
             let was_open = self.modes.get(p) == Conduction::Open;
             // A diode that had just been switched on at zero current and whose current would
             // reverse at once never conducted: it stays open now instead of chattering.
@@ -567,6 +593,9 @@ impl BldcPlant {
             return Some(PlantStop::Diode);
         }
         self.same_instant_events = 0;
+        if t1 - t0 >= 1e-12 {
+            self.muted = [false; 3];
+        }
         self.start = s1;
         None
     }
@@ -687,8 +716,11 @@ impl Plant for BldcPlant {
             let mut s1 = self.solve_at(&x1);
             let mut event = None;
             let mut dense = None;
-            if self.same_instant_events < 8 {
-                let hit = self.triggered(&x0, &x1, &s1);
+            {
+                let mut hit = self.triggered(&x0, &x1, &s1);
+                for (h, m) in hit.iter_mut().zip(self.muted) {
+                    *h &= !m;
+                }
                 if hit.contains(&true) {
                     // Locate every event of the step and keep the earliest.
                     let h_full = t1 - t0;

@@ -331,7 +331,8 @@ impl Circuit {
             if conducting < 2 {
                 // Only a diode pair can carry current: the rectifier case (|e spread| > V_DD + 2V_f).
                 let (hi_p, lo_p) = extreme_phases(e);
-                if modes.get(hi_p).conducts() || modes.get(lo_p).conducts() {
+                let kept = keep_open == Some(hi_p) || keep_open == Some(lo_p);
+                if kept || modes.get(hi_p).conducts() || modes.get(lo_p).conducts() {
                     break;
                 }
                 *trial.get_mut(hi_p) = Conduction::DiodeHigh;
