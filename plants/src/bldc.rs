@@ -736,13 +736,23 @@ impl Plant for BldcPlant {
                         let h = if self.modes.get(p).is_diode() {
                             // The dense output's root is usually exact enough; where the
                             // current approaches zero slowly it is not, and RK4 decides.
-                            let h = self.locate_diode(&d, p) * h_full;
-                            let x = self.rk4(&x0, h);
-                            if x[p.index()].abs() < 1e-9 {
-                                h
-                            } else {
-                                self.locate(&x0, h_full, p)
+                            let mut h = self.locate_diode(&d, p) * h_full;
+                            let k = p.index();
+                            let mut done = false;
+                            for _ in 0..3 {
+                                // Newton on the RK4 solution itself, from the dense guess.
+                                let x = self.rk4(&x0, h);
+                                if x[k].abs() < 1e-9 {
+                                    done = true;
+                                    break;
+                                }
+                                let slope = self.deriv_at(&x)[k];
+                                if slope == 0.0 {
+                                    break;
+                                }
+                                h = (h - x[k] / slope).clamp(0.0, h_full);
                             }
+                            if done { h } else { self.locate(&x0, h_full, p) }
                         } else {
                             self.locate(&x0, h_full, p)
                         };
