@@ -487,9 +487,18 @@ impl BldcPlant {
     /// The clock edge (not before `now`) at which the first watched change not yet reported
     /// must be sampled.
     fn pending_sample(&self, watch: Watch, now: Ticks) -> Option<Ticks> {
-        self.cmp
-            .next_visible_change(self.reported, watch.channels)
-            .map(|tv| tv.next_edge(watch.clock).max(now.next_edge(watch.clock)))
+        self.unreported(watch)
+            .map(|tv| Self::sample_edge(tv, watch, now))
+    }
+
+    /// When the first watched change not yet reported becomes visible.
+    fn unreported(&self, watch: Watch) -> Option<Ticks> {
+        self.cmp.next_visible_change(self.reported, watch.channels)
+    }
+
+    /// The clock edge (not before `now`) that samples a change visible at `tv`.
+    fn sample_edge(tv: Ticks, watch: Watch, now: Ticks) -> Ticks {
+        tv.next_edge(watch.clock).max(now.next_edge(watch.clock))
     }
 
     /// True signals now.
@@ -698,7 +707,8 @@ impl Plant for BldcPlant {
             }
             let t0 = self.t;
             let (now, on_tick) = Self::ceil_tick(t0);
-            let pending = self.pending_sample(watch, now);
+            let unreported = self.unreported(watch);
+            let pending = unreported.map(|tv| Self::sample_edge(tv, watch, now));
             if on_tick && pending == Some(now) {
                 self.reported = now;
                 return PlantStop::Sensing(now);
@@ -777,7 +787,6 @@ impl Plant for BldcPlant {
                     dense = Some(d);
                 }
             }
-            let unreported = self.cmp.next_visible_change(self.reported, watch.channels);
             self.cmp
                 .forget_history(Ticks((t0 / TICK_S + 1e-6).floor() as u64), unreported);
             self.cmp.update(

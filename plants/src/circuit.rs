@@ -119,9 +119,9 @@ impl Circuit {
         }
     }
 
-    /// Supply voltage [V].
-    pub fn supply_v(&self) -> f64 {
-        self.vdd
+    /// The diode clamps of an open terminal [V]: (low rail − V_f, V_DD + V_f).
+    fn clamps(&self, i_shunt: f64) -> (f64, f64) {
+        (self.r_sh * i_shunt - self.vf, self.vdd + self.vf)
     }
 
     fn source(&self, c: Conduction) -> (f64, f64) {
@@ -200,7 +200,7 @@ impl Circuit {
                     v: e[1],
                     w: e[2],
                 },
-                v_lr,
+                i_sh,
             )
         };
         for k in 0..3 {
@@ -227,12 +227,12 @@ impl Circuit {
 
     /// Neutral voltage with no conducting path: −Σe/3, clamped so that every terminal stays
     /// within the diode clamps.
-    fn floating_neutral(&self, e: &Abc<f64>, v_lr: f64) -> f64 {
+    fn floating_neutral(&self, e: &Abc<f64>, i_shunt: f64) -> f64 {
         let centre = -(e.u + e.v + e.w) / 3.0;
         let emax = e.u.max(e.v).max(e.w);
         let emin = e.u.min(e.v).min(e.w);
-        let lo = v_lr - self.vf - emin;
-        let hi = self.vdd + self.vf - emax;
+        let (lo, hi) = self.clamps(i_shunt);
+        let (lo, hi) = (lo - emin, hi - emax);
         if lo > hi {
             0.5 * (lo + hi)
         } else {
@@ -243,16 +243,14 @@ impl Circuit {
     /// Signed distance of an open terminal from the nearer diode clamp [V]: > 0 inside
     /// [low rail − V_f, V_DD + V_f], < 0 outside.
     pub fn clamp_margin(&self, v_term: f64, i_shunt: f64) -> f64 {
-        let lo = self.r_sh * i_shunt - self.vf;
-        let hi = self.vdd + self.vf;
+        let (lo, hi) = self.clamps(i_shunt);
         (v_term - lo).min(hi - v_term)
     }
 
     /// How far an open terminal is outside the diode clamps [V]: > 0 above V_DD + V_f,
     /// < 0 below the low rail − V_f, 0 inside.
     pub fn clamp_violation(&self, v_term: f64, i_shunt: f64) -> f64 {
-        let lo = self.r_sh * i_shunt - self.vf;
-        let hi = self.vdd + self.vf;
+        let (lo, hi) = self.clamps(i_shunt);
         if v_term > hi {
             v_term - hi
         } else if v_term < lo {
@@ -304,7 +302,8 @@ impl Circuit {
                 if round == 0 && at_clamp == Some(p) && viol.abs() <= 1e-9 {
                     // Located on the clamp: the nearer clamp is the one it reached.
                     let v = sol.v_term.get(p);
-                    let mid = 0.5 * (self.r_sh * sol.i_shunt - self.vf + self.vdd + self.vf);
+                    let (lo, hi) = self.clamps(sol.i_shunt);
+                    let mid = 0.5 * (lo + hi);
                     viol = if v < mid { -2e-9 } else { 2e-9 };
                 }
                 let allowed = keep_open != Some(p);
