@@ -6,18 +6,22 @@
 pub struct ParamError {
     /// Dotted path of the offending field.
     pub field: String,
-    /// The value that was given.
-    pub value: f64,
+    /// The value that was given, as written in a config file.
+    pub value: String,
     /// The rule it breaks.
     pub rule: &'static str,
 }
 
 impl ParamError {
     /// Builds an error for `field`.
-    pub fn new(field: impl Into<String>, value: f64, rule: &'static str) -> Self {
+    pub fn new(
+        field: impl Into<String>,
+        value: impl std::fmt::Display,
+        rule: &'static str,
+    ) -> Self {
         ParamError {
             field: field.into(),
-            value,
+            value: value.to_string(),
             rule,
         }
     }

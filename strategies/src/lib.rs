@@ -1,5 +1,20 @@
-//! strategies: commutation strategies as [`drive_core::Controller`] implementations.
+//! strategies: the chip's commutation strategies as [`drive_core::Controller`]s.
 //!
-//! The chip's 120° six-step and 150° twelve-step strategies arrive with their own issue;
-//! this crate holds the pieces they share.
+//! The chip ([`Chip`]) is composed of small parts, each testable against SPEC on its own:
+//! the commutation [`table`]s, the phase [`shifter`], the zero-crossing [`guard`]s and the
+//! digital [`filter`], the FG [`speed`] meter, the [`pi`] controllers, and the start-up and
+//! supervision logic in [`chip`]. [`params`] holds the `[control]` and `[strategy]` config.
 #![forbid(unsafe_code)]
+
+pub mod chip;
+pub mod filter;
+pub mod guard;
+pub mod params;
+pub mod pi;
+pub mod shifter;
+pub mod speed;
+pub mod table;
+
+pub use chip::{Chip, ChipStatus, Mode};
+pub use params::{ControlParams, GuardKind, StrategyName, StrategyParams, UnknownStrategy};
+pub use table::Table;

@@ -1,0 +1,452 @@
+//! The chip as one controller: start-up, supervision, phase shifter, guard and the
+//! speed/current cascade, each on its own clock (SPEC §4–§7).
+//!
+//! Every internal event (end of an alignment step, post → pre commutation, opening of a
+//! linear-region window, digital-filter settling, PI update, step-miss deadline) falls on a
+//! 0.64 µs edge and is requested through `wake_at`, so the engine calls [`Chip::tick`] at
+//! every edge where something happens and the counters catch up in between.
+
+use crate::guard::{Guard, window_counts};
+use crate::params::{ControlParams, GuardKind, StrategyName, StrategyParams};
+use crate::pi::{Pi, PiGains};
+use crate::shifter::{COUNTER_MAX, PhaseShifter, ShiftEvent};
+use crate::speed::SpeedMeter;
+use crate::table::{OFF_FLAG, Table, flag_of};
+use drive_core::bridge::{ALL_FLOAT, LegState};
+use drive_core::error::ParamError;
+use drive_core::{Abc, Command, Controller, Pattern, Sensed, Ticks, clocks};
+
+/// Master clocks the start input must be held before start-up begins (SPEC §7).
+pub const START_DEBOUNCE: Ticks = Ticks(31);
+
+/// Blanking after a commutation before a pre-crossing level counts as genuine [ticks]:
+/// 10 µs, well above the comparator's response (≈ 1 µs RC + 0.1 µs) plus the filter's.
+pub const BLANKING: Ticks = Ticks(500);
+
+/// The three alignment patterns u→v, v→w, v→u (flags 0100, 0000, 0001).
+pub const ALIGN_PATTERNS: [Pattern; 3] = {
+    use LegState::{Float as F, High as V, Low as G};
+    [
+        Abc { u: V, v: G, w: F },
+        Abc { u: F, v: V, w: G },
+        Abc { u: G, v: V, w: F },
+    ]
+};
+
+/// The sector whose pre pattern is the last alignment pattern (v→u, w floating).
+const HANDOVER_SECTOR: usize = 3;
+
+/// What the chip is doing.
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+pub enum Mode {
+    /// Bridge off (flag 0110), waiting for the start input.
+    Off,
+    /// Alignment step 0..2, ending at the given instant.
+    Aligning {
+        /// Step index.
+        step: u8,
+        /// When it ends.
+        until: Ticks,
+    },
+    /// Closed-loop sensorless commutation.
+    Running,
+    /// Too many restarts: off until reset.
+    GaveUp,
+}
+
+/// Observable state of the chip (for traces, tests and the FMU).
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub struct ChipStatus {
+    /// Mode.
+    pub mode: Mode,
+    /// Commutation state (1..12 twelve-step, 1..6 six-step), 0 when off or starting.
+    pub state: u8,
+    /// Bridge flag of the pattern in force.
+    pub flag: u8,
+    /// Raw Z_d (selected comparator) at the last tick.
+    pub zd: bool,
+    /// Z_d after the guard's filter (equal to `zd` without one).
+    pub zdf: bool,
+    /// Inside a linear region (PWM stopped).
+    pub linear: bool,
+    /// Voltage command in force [carrier counts].
+    pub duty: u32,
+    /// FG speed measurement [rpm].
+    pub speed_est_rpm: u32,
+    /// Current command from the speed PI [A].
+    pub current_ref_a: f64,
+    /// Restarts so far (step-miss errors).
+    pub restarts: u32,
+    /// Accepted zero crossings since the last hand-over.
+    pub crossings: u64,
+}
+
+/// The chip's controller.
+#[derive(Clone, Debug)]
+pub struct Chip {
+    control: ControlParams,
+    table: Table,
+    guard: Guard,
+    shifter: PhaseShifter,
+    speed: SpeedMeter,
+    speed_pi: Pi,
+    current_pi: Pi,
+    amps_per_code: f64,
+    top: u32,
+    start: bool,
+    start_since: Ticks,
+    reset: bool,
+    speed_ref_rpm: f64,
+    mode: Mode,
+    restarts: u32,
+    fg: bool,
+    fg_since: Ticks,
+    cv: u32,
+    linear: bool,
+    zd: bool,
+    zdf: bool,
+    next_pi: Ticks,
+    crossings: u64,
+    pattern: Pattern,
+}
+
+fn counts(seconds: f64, clock: Ticks) -> u64 {
+    (seconds / clock.seconds()).round().max(1.0) as u64
+}
+
+impl Chip {
+    /// Builds the chip for a motor with `pole_pairs` (P/2), an ADC reading `amps_per_code`,
+    /// and a PWM carrier of top `carrier_top` counts. The start input is held from t = 0.
+    pub fn new(
+        control: ControlParams,
+        strategy: StrategyParams,
+        pole_pairs: u32,
+        amps_per_code: f64,
+        carrier_top: u32,
+    ) -> Result<Self, ParamError> {
+        control.validate()?;
+        strategy.validate()?;
+        if !(amps_per_code.is_finite() && amps_per_code > 0.0) {
+            return Err(ParamError::new(
+                "sensing.current (A per ADC code)",
+                amps_per_code,
+                "must be finite and > 0",
+            ));
+        }
+        let table = match strategy.name {
+            StrategyName::SixStep120 => Table::SixStep,
+            _ => Table::TwelveStep {
+                conduction_deg: strategy.conduction_deg(),
+            },
+        };
+        let top = carrier_top.max(1);
+        let speed_pi = Pi::new(
+            PiGains {
+                kp: control.speed_kp,
+                ki: control.speed_ki,
+                lo: 0.0,
+                hi: control.current_limit_a,
+                k_s: 0.0,
+            },
+            0.0,
+        );
+        let current_pi = Pi::new(
+            PiGains {
+                kp: control.current_kp,
+                ki: control.current_ki,
+                lo: 0.0,
+                hi: f64::from(top),
+                k_s: if control.anti_windup {
+                    control.anti_windup_gain
+                } else {
+                    0.0
+                },
+            },
+            0.0,
+        );
+        Ok(Chip {
+            table,
+            guard: Guard::from_params(&strategy),
+            shifter: PhaseShifter::new(table, BLANKING),
+            speed: SpeedMeter::new(
+                control.speed_periods,
+                control.speed_counter_bits,
+                pole_pairs,
+            ),
+            speed_pi,
+            current_pi,
+            amps_per_code,
+            top,
+            start: true,
+            start_since: Ticks::ZERO,
+            reset: false,
+            speed_ref_rpm: control.speed_ref_rpm,
+            mode: Mode::Off,
+            restarts: 0,
+            fg: false,
+            fg_since: Ticks::ZERO,
+            cv: 0,
+            linear: false,
+            zd: false,
+            zdf: false,
+            next_pi: Ticks::NEVER,
+            crossings: 0,
+            pattern: ALL_FLOAT,
+            control,
+        })
+    }
+
+    /// Sets the start input at instant `now` (it must stay high for 31 master clocks).
+    pub fn set_start(&mut self, now: Ticks, level: bool) {
+        if level && !self.start {
+            self.start_since = now;
+        }
+        self.start = level;
+    }
+
+    /// Sets the reset input: while high, everything is off and the restart count clears.
+    pub fn set_reset(&mut self, level: bool) {
+        self.reset = level;
+    }
+
+    /// Sets the speed command [rpm], clamped to the 14-bit register (0..16383).
+    pub fn set_speed_ref(&mut self, rpm: f64) {
+        if rpm.is_finite() {
+            self.speed_ref_rpm = rpm.clamp(0.0, crate::params::SPEED_CMD_MAX_RPM);
+        }
+    }
+
+    /// The speed command in force [rpm].
+    pub fn speed_ref_rpm(&self) -> f64 {
+        self.speed_ref_rpm
+    }
+
+    /// The commutation table in use.
+    pub fn table(&self) -> Table {
+        self.table
+    }
+
+    /// The guard in use.
+    pub fn guard_kind(&self) -> GuardKind {
+        self.guard.kind
+    }
+
+    /// Everything observable.
+    pub fn status(&self) -> ChipStatus {
+        ChipStatus {
+            mode: self.mode,
+            state: if self.mode == Mode::Running {
+                self.shifter.state()
+            } else {
+                0
+            },
+            flag: flag_of(&self.pattern).unwrap_or(OFF_FLAG),
+            zd: self.zd,
+            zdf: self.zdf,
+            linear: self.linear,
+            duty: self.duty(),
+            speed_est_rpm: self.speed.rpm(),
+            current_ref_a: self.speed_pi.output(),
+            restarts: self.restarts,
+            crossings: self.crossings,
+        }
+    }
+
+    fn duty(&self) -> u32 {
+        if self.linear { self.top } else { self.cv }
+    }
+
+    fn to_off(&mut self) {
+        self.mode = Mode::Off;
+        self.pattern = ALL_FLOAT;
+        self.cv = 0;
+        self.linear = false;
+        self.next_pi = Ticks::NEVER;
+    }
+
+    fn begin_align(&mut self, now: Ticks) {
+        self.mode = Mode::Aligning {
+            step: 0,
+            until: self.align_end(now, 0),
+        };
+        self.pattern = ALIGN_PATTERNS[0];
+        self.cv = (self.control.startup_duty * f64::from(self.top)).round() as u32;
+        self.linear = false;
+        self.speed.reset();
+        self.speed_pi.set_integrator(0.0);
+        self.guard.filter.reset();
+    }
+
+    fn align_end(&self, now: Ticks, step: usize) -> Ticks {
+        let n = counts(self.control.align_s[step], clocks::ALIGN);
+        Ticks(now.next_edge(clocks::ALIGN).0 + n * clocks::ALIGN.0)
+    }
+
+    fn hand_over(&mut self, now: Ticks) {
+        let t60 = counts(self.control.handover_t60_s, clocks::COMMUTATION).min(COUNTER_MAX);
+        self.shifter.hand_over(HANDOVER_SECTOR, now, t60);
+        self.mode = Mode::Running;
+        self.crossings = 0;
+        self.fg = self.table.fg(self.shifter.state());
+        self.fg_since = now;
+        self.current_pi.set_integrator(f64::from(self.cv));
+        self.next_pi = Ticks(now.0 + 1).next_edge(clocks::PI_UPDATE);
+    }
+
+    fn restart(&mut self, now: Ticks) {
+        self.restarts += 1;
+        if self.restarts > self.control.max_restarts {
+            self.to_off();
+            self.mode = Mode::GaveUp;
+        } else {
+            self.begin_align(now);
+        }
+    }
+
+    /// Start of the linear-region window before the expected crossing (ND/LM, once t_60
+    /// is measured).
+    fn window_start(&self) -> Option<Ticks> {
+        let deg = self.guard.linear_window_deg(self.speed.rpm())?;
+        let expected = self.shifter.expected_crossing()?;
+        let (t60, _) = self.shifter.t60();
+        let low = window_counts(t60, deg) * clocks::COMMUTATION.0;
+        Some(Ticks(expected.0.saturating_sub(low)))
+    }
+
+    fn step_miss_deadline(&self) -> Ticks {
+        let n = counts(self.control.step_miss_s, clocks::STEP_MISS);
+        Ticks(self.fg_since.next_edge(clocks::STEP_MISS).0 + n * clocks::STEP_MISS.0)
+    }
+
+    fn run(&mut self, now: Ticks, sensed: &Sensed) {
+        self.shifter.poll(now);
+        let z = sensed.zc.get(self.shifter.zd_phase());
+        let level = self.guard.detect_level(now, z);
+        self.zd = z;
+        self.zdf = level;
+        let open = self.window_start().is_none_or(|w| now >= w);
+        if self.shifter.observe(now, level, open) == ShiftEvent::Crossing {
+            self.crossings += 1;
+            // With an empty post part the sensed phase changed at this same edge.
+            let z = sensed.zc.get(self.shifter.zd_phase());
+            self.guard.filter.retarget(z);
+        }
+        self.pattern = self.shifter.pattern();
+        self.linear = self.window_start().is_some_and(|w| now >= w);
+        let fg = self.table.fg(self.shifter.state());
+        if fg != self.fg {
+            if fg {
+                self.speed.fg_rising(now);
+            }
+            self.fg = fg;
+            self.fg_since = now;
+        }
+        if now >= self.next_pi {
+            self.pi_update(sensed.current_code);
+            while self.next_pi <= now {
+                self.next_pi = self.next_pi + clocks::PI_UPDATE;
+            }
+        }
+        if now >= self.step_miss_deadline() {
+            self.restart(now);
+        }
+    }
+
+    /// Speed PI → current command; current PI → voltage command (SPEC §6).
+    fn pi_update(&mut self, current_code: u16) {
+        let speed_error = self.speed_ref_rpm - f64::from(self.speed.rpm());
+        let i_ref = self.speed_pi.update(speed_error);
+        let i = f64::from(current_code) * self.amps_per_code;
+        let u = self.current_pi.update(i_ref - i);
+        self.cv = (u.round() as u32).min(self.top);
+    }
+
+    fn wake_at(&self, now: Ticks) -> Ticks {
+        match self.mode {
+            Mode::Off => {
+                if self.start && !self.reset {
+                    Ticks(self.start_since.0 + START_DEBOUNCE.0).max(Ticks(now.0 + 1))
+                } else {
+                    Ticks::NEVER
+                }
+            }
+            Mode::GaveUp => Ticks::NEVER,
+            Mode::Aligning { until, .. } => until,
+            Mode::Running => {
+                let mut w = self.next_pi.min(self.step_miss_deadline());
+                if let Some(e) = self.shifter.post_end() {
+                    w = w.min(e);
+                }
+                if let Some(s) = self.window_start()
+                    && s > now
+                {
+                    w = w.min(s);
+                }
+                if self.shifter.in_pre()
+                    && let Some(s) = self.guard.filter.settles_at()
+                    && self.guard.kind == GuardKind::Df
+                {
+                    w = w.min(s);
+                }
+                w
+            }
+        }
+    }
+}
+
+impl Controller for Chip {
+    fn clock(&self) -> Ticks {
+        clocks::COMMUTATION
+    }
+
+    fn tick(&mut self, now: Ticks, sensed: &Sensed) -> Command {
+        if self.reset {
+            self.to_off();
+            self.restarts = 0;
+        } else {
+            match self.mode {
+                Mode::Off => {
+                    if self.start && now.0 >= self.start_since.0 + START_DEBOUNCE.0 {
+                        self.begin_align(now);
+                    }
+                }
+                Mode::GaveUp => {}
+                Mode::Aligning { step, until } => {
+                    if !self.start {
+                        self.to_off();
+                    } else if now >= until {
+                        let next = usize::from(step) + 1;
+                        if next < ALIGN_PATTERNS.len() {
+                            self.mode = Mode::Aligning {
+                                step: next as u8,
+                                until: self.align_end(now, next),
+                            };
+                            self.pattern = ALIGN_PATTERNS[next];
+                        } else {
+                            self.hand_over(now);
+                            self.run(now, sensed);
+                        }
+                    }
+                }
+                Mode::Running => {
+                    if self.start {
+                        self.run(now, sensed);
+                    } else {
+                        self.to_off();
+                    }
+                }
+            }
+        }
+        let watch = if self.mode == Mode::Running && self.shifter.in_pre() {
+            Abc::from_fn(|x| x == self.shifter.zd_phase())
+        } else {
+            Abc::splat(false)
+        };
+        Command {
+            pattern: self.pattern,
+            duty: self.duty(),
+            watch,
+            wake_at: self.wake_at(now),
+        }
+    }
+}

@@ -1,0 +1,400 @@
+//! Controller and strategy parameters: the `[control]` and `[strategy]` config sections.
+//!
+//! Quantities are in the units the chip works in where the chip fixes them (rpm for speed,
+//! carrier counts for the voltage command) and in SI units elsewhere. Every field states its
+//! unit, default and rule; [`ControlParams::validate`] and [`StrategyParams::validate`] name
+//! the first field that breaks a rule.
+
+use drive_core::error::{ParamError, check_non_negative, check_range};
+use serde::{Deserialize, Serialize};
+use std::fmt;
+use std::str::FromStr;
+
+/// Largest speed command the chip's 14-bit speed register holds [rpm].
+pub const SPEED_CMD_MAX_RPM: f64 = 16_383.0;
+
+/// Speed and current control, start-up and supervision (`[control]`).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct ControlParams {
+    /// Speed command ωc [rpm]. Default 3000. Rule: 0..=16383 (14-bit register).
+    pub speed_ref_rpm: f64,
+    /// Speed PI proportional gain [A/rpm]. Default 1.0e-4. Rule: ≥ 0.
+    pub speed_kp: f64,
+    /// Speed PI integral gain per PI update [A/(rpm·update)]. Default 1.0e-5. Rule: ≥ 0.
+    /// The continuous-time equivalent is this divided by the PI period (5.24 ms).
+    pub speed_ki: f64,
+    /// Current PI proportional gain [carrier counts/A]. Default 500. Rule: ≥ 0.
+    pub current_kp: f64,
+    /// Current PI integral gain per PI update [carrier counts/(A·update)]. Default 800.
+    /// Rule: ≥ 0.
+    pub current_ki: f64,
+    /// Current command limit: output and integrator saturation of the speed PI [A].
+    /// Default 0.5 (ADC full scale). Rule: 0 < x ≤ 10.
+    pub current_limit_a: f64,
+    /// Back-calculation anti-windup on the current PI. Default true.
+    pub anti_windup: bool,
+    /// Back-calculation gain k_s: the integrator input is reduced by k_s·(uc − limit)
+    /// [1]. Default 32 (the chip's). Rule: 0..=1024.
+    pub anti_windup_gain: f64,
+    /// Voltage command during alignment and start-up [fraction of the carrier top, 0..1].
+    /// Default 0.2 (≈ 0.5 A into a locked phase pair at 12 V). Rule: 0 < x ≤ 1.
+    pub startup_duty: f64,
+    /// Durations of the three alignment steps u→v, v→w, v→u [s]; each is rounded to the
+    /// align clock (327.68 µs). Default [0.7, 0.038, 0.015] (SPEC §7). Rule: each in
+    /// 0.000 327 68..=10.
+    pub align_s: [f64; 3],
+    /// Time the floating-phase crossing logic assumes for the first 60° after the hand-over
+    /// to closed loop, before it has measured one [s]. Default 0.015. Rule: 1e-5..=0.02
+    /// (the 15-bit 0.64 µs counter holds at most 20.97 ms).
+    pub handover_t60_s: f64,
+    /// Step-miss limit: FG_c unchanged for longer than this raises an error and restarts
+    /// [s]. Default 0.05 (below 100 rpm). Rule: 0.001..=10.
+    pub step_miss_s: f64,
+    /// Restarts allowed before the drive gives up and stays off. Default 5. Rule: ≤ 1000.
+    pub max_restarts: u32,
+    /// FG periods per speed measurement k. Default 10. Rule: 1..=100.
+    pub speed_periods: u32,
+    /// Width of the speed counter (2.56 µs counts) [bits]. Default 15 (SPEC §7 "counters 15
+    /// bit"): it saturates at 32767 counts, so with k = 10 and 12 poles the lowest speed it
+    /// can read is 39 062 500 / 32767 ≈ 1192 rpm. Rule: 8..=32.
+    pub speed_counter_bits: u32,
+}
+
+impl Default for ControlParams {
+    fn default() -> Self {
+        ControlParams {
+            speed_ref_rpm: 3000.0,
+            speed_kp: 1.0e-4,
+            speed_ki: 1.0e-5,
+            current_kp: 500.0,
+            current_ki: 800.0,
+            current_limit_a: 0.5,
+            anti_windup: true,
+            anti_windup_gain: 32.0,
+            startup_duty: 0.2,
+            align_s: [0.7, 0.038, 0.015],
+            handover_t60_s: 0.015,
+            step_miss_s: 0.05,
+            max_restarts: 5,
+            speed_periods: 10,
+            speed_counter_bits: 15,
+        }
+    }
+}
+
+impl ControlParams {
+    /// Checks every rule; the error names the first field that breaks one.
+    pub fn validate(&self) -> Result<(), ParamError> {
+        check_range(
+            "control.speed_ref_rpm",
+            self.speed_ref_rpm,
+            0.0,
+            SPEED_CMD_MAX_RPM,
+            "must be in 0..=16383 rpm (14-bit speed register)",
+        )?;
+        check_non_negative("control.speed_kp", self.speed_kp)?;
+        check_non_negative("control.speed_ki", self.speed_ki)?;
+        check_non_negative("control.current_kp", self.current_kp)?;
+        check_non_negative("control.current_ki", self.current_ki)?;
+        if !(self.current_limit_a > 0.0 && self.current_limit_a <= 10.0) {
+            return Err(ParamError::new(
+                "control.current_limit_a",
+                self.current_limit_a,
+                "must be in (0, 10] A",
+            ));
+        }
+        check_range(
+            "control.anti_windup_gain",
+            self.anti_windup_gain,
+            0.0,
+            1024.0,
+            "must be in 0..=1024",
+        )?;
+        if !(self.startup_duty > 0.0 && self.startup_duty <= 1.0) {
+            return Err(ParamError::new(
+                "control.startup_duty",
+                self.startup_duty,
+                "must be in (0, 1] (fraction of the carrier top)",
+            ));
+        }
+        for (k, &d) in self.align_s.iter().enumerate() {
+            let field = [
+                "control.align_s[0]",
+                "control.align_s[1]",
+                "control.align_s[2]",
+            ][k];
+            check_range(
+                field,
+                d,
+                327.68e-6,
+                10.0,
+                "must be in 327.68e-6..=10 s (at least one align-clock period)",
+            )?;
+        }
+        check_range(
+            "control.handover_t60_s",
+            self.handover_t60_s,
+            1e-5,
+            0.02,
+            "must be in 1e-5..=0.02 s (the 15-bit 0.64 µs counter)",
+        )?;
+        check_range(
+            "control.step_miss_s",
+            self.step_miss_s,
+            0.001,
+            10.0,
+            "must be in 0.001..=10 s",
+        )?;
+        if self.max_restarts > 1000 {
+            return Err(ParamError::new(
+                "control.max_restarts",
+                self.max_restarts,
+                "must be <= 1000",
+            ));
+        }
+        if !(1..=100).contains(&self.speed_periods) {
+            return Err(ParamError::new(
+                "control.speed_periods",
+                self.speed_periods,
+                "must be in 1..=100 FG periods",
+            ));
+        }
+        if !(8..=32).contains(&self.speed_counter_bits) {
+            return Err(ParamError::new(
+                "control.speed_counter_bits",
+                self.speed_counter_bits,
+                "must be in 8..=32 bits",
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// A built-in strategy name, as used by every front end (bench, FMU, config).
+#[derive(Copy, Clone, Debug, PartialEq, Eq, Hash)]
+pub enum StrategyName {
+    /// 120° six-step with the two-counter phase shifter (guard from `strategy.guard`).
+    SixStep120,
+    /// Twelve-step (150° by default) without a guard.
+    TwelveStepRaw,
+    /// Twelve-step with a fixed linear region.
+    TwelveStepNd,
+    /// Twelve-step with a speed-modulated linear region.
+    TwelveStepLm,
+    /// Twelve-step with the digital filter.
+    TwelveStepDf,
+}
+
+impl StrategyName {
+    /// Every built-in strategy, in the order front ends list them.
+    pub const ALL: [StrategyName; 5] = [
+        StrategyName::SixStep120,
+        StrategyName::TwelveStepRaw,
+        StrategyName::TwelveStepNd,
+        StrategyName::TwelveStepLm,
+        StrategyName::TwelveStepDf,
+    ];
+
+    /// The name used on the command line and in config files.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            StrategyName::SixStep120 => "six-step-120",
+            StrategyName::TwelveStepRaw => "twelve-step-raw",
+            StrategyName::TwelveStepNd => "twelve-step-nd",
+            StrategyName::TwelveStepLm => "twelve-step-lm",
+            StrategyName::TwelveStepDf => "twelve-step-df",
+        }
+    }
+
+    /// The guard a twelve-step name fixes (`None` for six-step, which takes `strategy.guard`).
+    pub fn fixed_guard(self) -> Option<GuardKind> {
+        match self {
+            StrategyName::SixStep120 => None,
+            StrategyName::TwelveStepRaw => Some(GuardKind::Raw),
+            StrategyName::TwelveStepNd => Some(GuardKind::Nd),
+            StrategyName::TwelveStepLm => Some(GuardKind::Lm),
+            StrategyName::TwelveStepDf => Some(GuardKind::Df),
+        }
+    }
+}
+
+impl fmt::Display for StrategyName {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.as_str())
+    }
+}
+
+/// A strategy name that is not built in.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+#[error(
+    "unknown strategy `{0}` (rule: one of six-step-120, twelve-step-raw, twelve-step-nd, twelve-step-lm, twelve-step-df)"
+)]
+pub struct UnknownStrategy(pub String);
+
+impl FromStr for StrategyName {
+    type Err = UnknownStrategy;
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        StrategyName::ALL
+            .into_iter()
+            .find(|n| n.as_str() == s)
+            .ok_or_else(|| UnknownStrategy(s.to_string()))
+    }
+}
+
+impl Serialize for StrategyName {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_str(self.as_str())
+    }
+}
+
+impl<'de> Deserialize<'de> for StrategyName {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let s = String::deserialize(d)?;
+        s.parse().map_err(serde::de::Error::custom)
+    }
+}
+
+/// Which zero-crossing guard protects the floating-phase comparator from PWM edges.
+#[derive(Copy, Clone, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum GuardKind {
+    /// No guard: the raw comparator output is trusted (shows the problem).
+    Raw,
+    /// Fixed linear region of `strategy.linear_region_deg` before each expected crossing.
+    Nd,
+    /// Linear region shrunk with the measured speed (SPEC §5).
+    Lm,
+    /// Digital filter of `strategy.filter_samples` flip-flops and an RS latch.
+    Df,
+}
+
+impl GuardKind {
+    /// The short name used in strategy names and config.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            GuardKind::Raw => "raw",
+            GuardKind::Nd => "nd",
+            GuardKind::Lm => "lm",
+            GuardKind::Df => "df",
+        }
+    }
+}
+
+/// Commutation strategy and its zero-crossing guard (`[strategy]`).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct StrategyParams {
+    /// Built-in strategy. Default `twelve-step-df`.
+    pub name: StrategyName,
+    /// Guard of `six-step-120`. Default `df`. Rule: only with six-step-120 (the
+    /// twelve-step names fix their guard).
+    pub guard: Option<GuardKind>,
+    /// Conduction angle of the twelve-step strategies [electrical degrees]: each phase
+    /// conducts this long per half cycle, from its own crossing on; the floating window
+    /// before each crossing is 180° − angle. Default 150 (the chip). Rule: 120 ≤ x < 180
+    /// (at 180° nothing floats, so nothing can be sensed); twelve-step names only.
+    pub conduction_angle_deg: Option<f64>,
+    /// Linear-region window θZC before each expected crossing [whole electrical degrees]
+    /// (`nd`; the upper end of `lm`). Default 15. Rule: 1..=60.
+    pub linear_region_deg: u32,
+    /// ωM: speed from which `lm` uses the full window [rpm]. Default 8000. Rule: > ωm,
+    /// ≤ 16383.
+    pub lm_speed_max_rpm: u32,
+    /// ωm: speed at and below which `lm` uses a 1° window [rpm]. Default 1000.
+    pub lm_speed_min_rpm: u32,
+    /// Flip-flops of the digital filter (3 in the chip), clocked at 0.64 µs. Default 3.
+    /// Rule: 1..=64.
+    pub filter_samples: u32,
+}
+
+impl Default for StrategyParams {
+    fn default() -> Self {
+        StrategyParams {
+            name: StrategyName::TwelveStepDf,
+            guard: None,
+            conduction_angle_deg: None,
+            linear_region_deg: 15,
+            lm_speed_max_rpm: 8000,
+            lm_speed_min_rpm: 1000,
+            filter_samples: 3,
+        }
+    }
+}
+
+impl StrategyParams {
+    /// Checks every rule; the error names the first field that breaks one.
+    pub fn validate(&self) -> Result<(), ParamError> {
+        if let Some(g) = self.guard
+            && let Some(fixed) = self.name.fixed_guard()
+            && g != fixed
+        {
+            return Err(ParamError::new(
+                "strategy.guard",
+                format!("\"{}\" with {}", g.as_str(), self.name),
+                "applies to six-step-120 only; twelve-step names fix their guard (pick the name with the guard you want)",
+            ));
+        }
+        if let Some(a) = self.conduction_angle_deg {
+            if self.name == StrategyName::SixStep120 {
+                return Err(ParamError::new(
+                    "strategy.conduction_angle_deg",
+                    a,
+                    "applies to twelve-step strategies only (six-step-120 conducts 120°)",
+                ));
+            }
+            if !(a.is_finite() && (120.0..180.0).contains(&a)) {
+                return Err(ParamError::new(
+                    "strategy.conduction_angle_deg",
+                    a,
+                    "must be in 120 <= x < 180 electrical degrees",
+                ));
+            }
+        }
+        if !(1..=60).contains(&self.linear_region_deg) {
+            return Err(ParamError::new(
+                "strategy.linear_region_deg",
+                self.linear_region_deg,
+                "must be in 1..=60 electrical degrees",
+            ));
+        }
+        if self.lm_speed_max_rpm as f64 > SPEED_CMD_MAX_RPM {
+            return Err(ParamError::new(
+                "strategy.lm_speed_max_rpm",
+                self.lm_speed_max_rpm,
+                "must be <= 16383 rpm",
+            ));
+        }
+        if self.lm_speed_max_rpm <= self.lm_speed_min_rpm {
+            return Err(ParamError::new(
+                "strategy.lm_speed_max_rpm",
+                self.lm_speed_max_rpm,
+                "must be greater than strategy.lm_speed_min_rpm (ωM > ωm)",
+            ));
+        }
+        if !(1..=64).contains(&self.filter_samples) {
+            return Err(ParamError::new(
+                "strategy.filter_samples",
+                self.filter_samples,
+                "must be in 1..=64 samples",
+            ));
+        }
+        Ok(())
+    }
+
+    /// The guard in force: the one the name fixes, else `strategy.guard`, else `df`.
+    pub fn guard_kind(&self) -> GuardKind {
+        self.name
+            .fixed_guard()
+            .or(self.guard)
+            .unwrap_or(GuardKind::Df)
+    }
+
+    /// Conduction angle in force [electrical degrees].
+    pub fn conduction_deg(&self) -> f64 {
+        match self.name {
+            StrategyName::SixStep120 => 120.0,
+            _ => self.conduction_angle_deg.unwrap_or(150.0),
+        }
+    }
+}

@@ -1,0 +1,145 @@
+//! The chip's discrete PI (SPEC §6), with optional back-calculation anti-windup.
+//!
+//! Per update k, with error e(k):
+//!
+//! ```text
+//! uc(k) = Kp·e(k) + ui(k−1) + Ki·e(k)                     (pre-saturation command)
+//! ui(k) = sat(ui(k−1) + Ki·e(k) − k_s·(uc(k) − sat(uc(k))))  (k_s = 0 without anti-windup)
+//! u(k)  = sat(uc(k))
+//! ```
+//!
+//! sat clamps to [lo, hi], after the integrator and at the output as in the chip. Without
+//! anti-windup the integrator runs up to its own limit while the output is saturated and
+//! must be unwound by an error of the other sign; with it, any excess over the limit is
+//! fed back k_s-fold, which pulls the integrator out of saturation within one update.
+
+/// Gains, limits and anti-windup of one PI.
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub struct PiGains {
+    /// Proportional gain.
+    pub kp: f64,
+    /// Integral gain per update.
+    pub ki: f64,
+    /// Lower limit of output and integrator.
+    pub lo: f64,
+    /// Upper limit of output and integrator.
+    pub hi: f64,
+    /// Back-calculation gain k_s (0 disables anti-windup).
+    pub k_s: f64,
+}
+
+/// A discrete PI controller.
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub struct Pi {
+    /// Gains and limits.
+    pub gains: PiGains,
+    ui: f64,
+    out: f64,
+}
+
+impl Pi {
+    /// A PI with its integrator at `ui0` (clamped to the limits).
+    pub fn new(gains: PiGains, ui0: f64) -> Self {
+        Pi {
+            gains,
+            ui: ui0.clamp(gains.lo, gains.hi),
+            out: ui0.clamp(gains.lo, gains.hi),
+        }
+    }
+
+    /// One update with error `e`; returns the saturated output.
+    pub fn update(&mut self, e: f64) -> f64 {
+        let g = self.gains;
+        let integ = self.ui + g.ki * e;
+        let uc = g.kp * e + integ;
+        let out = uc.clamp(g.lo, g.hi);
+        self.ui = (integ - g.k_s * (uc - out)).clamp(g.lo, g.hi);
+        self.out = out;
+        out
+    }
+
+    /// Integrator state ui.
+    pub fn integrator(&self) -> f64 {
+        self.ui
+    }
+
+    /// Last output.
+    pub fn output(&self) -> f64 {
+        self.out
+    }
+
+    /// Sets the integrator (bumpless hand-over), clamped to the limits.
+    pub fn set_integrator(&mut self, ui: f64) {
+        self.ui = ui.clamp(self.gains.lo, self.gains.hi);
+        self.out = self.ui;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn gains(k_s: f64) -> PiGains {
+        PiGains {
+            kp: 2.0,
+            ki: 0.5,
+            lo: 0.0,
+            hi: 10.0,
+            k_s,
+        }
+    }
+
+    #[test]
+    fn difference_equation_inside_the_limits() {
+        let mut pi = Pi::new(gains(0.0), 0.0);
+        // e = 1, 1, −0.5: ui = 0.5, 1.0, 0.75; u = 2·e + ui.
+        assert_eq!(pi.update(1.0), 2.5);
+        assert_eq!(pi.update(1.0), 3.0);
+        // uc = −1 + 0.75 = −0.25 is clamped at the output only.
+        assert_eq!(pi.update(-0.5), 0.0);
+        assert_eq!(pi.integrator(), 0.75);
+    }
+
+    #[test]
+    fn output_and_integrator_saturate() {
+        let mut pi = Pi::new(gains(0.0), 0.0);
+        for _ in 0..100 {
+            assert!(pi.update(3.0) <= 10.0);
+        }
+        assert_eq!(pi.output(), 10.0);
+        assert_eq!(
+            pi.integrator(),
+            10.0,
+            "no anti-windup: integrator runs to its limit"
+        );
+        assert_eq!(Pi::new(gains(0.0), 0.0).update(-5.0), 0.0);
+    }
+
+    #[test]
+    fn anti_windup_pulls_the_integrator_out_of_saturation() {
+        let g = |k_s| PiGains {
+            kp: 1.0,
+            ki: 1.0,
+            lo: 0.0,
+            hi: 10.0,
+            k_s,
+        };
+        // A large error saturates the output for 5 updates, then the error vanishes.
+        let mut off = Pi::new(g(0.0), 0.0);
+        let mut on = Pi::new(g(32.0), 0.0);
+        for _ in 0..5 {
+            assert_eq!(off.update(20.0), 10.0);
+            assert_eq!(on.update(20.0), 10.0);
+        }
+        // Without anti-windup the integrator is wound to the limit and the output stays
+        // saturated with zero error; with k_s = 32 the excess (≥ 30) wiped it out.
+        assert_eq!(off.integrator(), 10.0);
+        assert_eq!(off.update(0.0), 10.0);
+        assert_eq!(on.integrator(), 0.0);
+        assert_eq!(on.update(0.0), 0.0);
+        // Partial correction, by hand: ui = 5, e = 3 → integ 8, uc 11, excess 1, k_s 2 → 6.
+        let mut p = Pi::new(g(2.0), 5.0);
+        assert_eq!(p.update(3.0), 10.0);
+        assert_eq!(p.integrator(), 6.0);
+    }
+}

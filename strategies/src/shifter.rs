@@ -1,0 +1,369 @@
+//! The digital phase shifter (SPEC §4): from zero crossings to commutation instants.
+//!
+//! The chip's two counters C_p, C_n time how long Z_d stays high and low, each 60° of
+//! rotation; the finished one, t_60, fixes the next commutation. Here t_60 is the number of
+//! 0.64 µs clocks between the last two accepted crossings (15-bit, saturating), which is what
+//! the finished counter holds when Z_d is clean. At a crossing the drive applies the
+//! sector's post pattern (for twelve-step: the 3-phase state at once); when t_60·num/den
+//! clocks have elapsed it commutates to the pre pattern (30° for six-step and 150°).
+//!
+//! **Not being fooled after a commutation.** Right after the pre pattern floats a phase,
+//! that phase still carries current, which freewheels through a diode and clamps the
+//! terminal to a rail: its comparator shows the *post*-crossing level for a while. A
+//! crossing is therefore accepted only once the detector is *armed*: it has seen the
+//! pre-crossing level either begin after the commutation (the freewheel ended) or last
+//! longer than the blanking time (there was no freewheel, and the level it saw was not
+//! left over from before the commutation).
+
+use crate::table::{Sector, Table};
+use drive_core::{Pattern, Phase, Ticks, clocks};
+
+/// The 15-bit counters' limit [clocks].
+pub const COUNTER_MAX: u64 = (1 << 15) - 1;
+
+/// What [`PhaseShifter::poll`] and [`PhaseShifter::observe`] did.
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+pub enum ShiftEvent {
+    /// Nothing.
+    None,
+    /// A crossing was accepted: the post pattern applies from now.
+    Crossing,
+    /// The post part ended: the pre pattern applies from now.
+    Commutation,
+}
+
+/// Sector sequencing, t_60 measurement and crossing acceptance.
+#[derive(Clone, Debug)]
+pub struct PhaseShifter {
+    table: Table,
+    blank: Ticks,
+    sector: usize,
+    in_pre: bool,
+    entered_pre: Ticks,
+    last_cross: Ticks,
+    t60: u64,
+    measured: bool,
+    crossings_seen: u32,
+    post_end: Ticks,
+    armed: bool,
+    pre_run: Option<Ticks>,
+}
+
+const CLK: u64 = clocks::COMMUTATION.0;
+
+impl PhaseShifter {
+    /// A shifter for `table` with the given blanking time, idle in sector 0.
+    pub fn new(table: Table, blank: Ticks) -> Self {
+        PhaseShifter {
+            table,
+            blank,
+            sector: 0,
+            in_pre: true,
+            entered_pre: Ticks::ZERO,
+            last_cross: Ticks::ZERO,
+            t60: COUNTER_MAX,
+            measured: false,
+            crossings_seen: 0,
+            post_end: Ticks::NEVER,
+            armed: false,
+            pre_run: None,
+        }
+    }
+
+    /// Starts closed-loop operation at `now` in the pre part of `sector`, whose floating
+    /// phase has been floating long enough to carry no current (the last alignment step):
+    /// the detector is armed at once, and t_60 is assumed to be `t60_counts` until two
+    /// crossings have been measured.
+    pub fn hand_over(&mut self, sector: usize, now: Ticks, t60_counts: u64) {
+        self.sector = sector % 6;
+        self.in_pre = true;
+        self.entered_pre = now;
+        self.last_cross = now;
+        self.t60 = t60_counts.clamp(1, COUNTER_MAX);
+        self.measured = false;
+        self.crossings_seen = 0;
+        self.post_end = Ticks::NEVER;
+        self.armed = true;
+        self.pre_run = None;
+    }
+
+    /// Runs the post → pre commutation if it is due at `now`.
+    pub fn poll(&mut self, now: Ticks) -> ShiftEvent {
+        if !self.in_pre && now >= self.post_end {
+            self.enter_pre(now);
+            return ShiftEvent::Commutation;
+        }
+        ShiftEvent::None
+    }
+
+    fn enter_pre(&mut self, now: Ticks) {
+        self.in_pre = true;
+        self.entered_pre = now;
+        self.armed = false;
+        self.pre_run = None;
+    }
+
+    /// Feeds the detection level (after the guard's filter) seen at clock edge `now`;
+    /// `window_open` is false while a linear-region guard is still waiting for its window.
+    pub fn observe(&mut self, now: Ticks, level: bool, window_open: bool) -> ShiftEvent {
+        if !self.in_pre {
+            return ShiftEvent::None;
+        }
+        let post_level = self.sector().rising;
+        if level != post_level {
+            if self.pre_run.is_none() {
+                self.pre_run = Some(now);
+            }
+            return ShiftEvent::None;
+        }
+        if let Some(start) = self.pre_run.take()
+            && (start > self.entered_pre || now.0 - start.0 >= self.blank.0)
+        {
+            self.armed = true;
+        }
+        if self.armed && window_open {
+            self.cross(now);
+            return ShiftEvent::Crossing;
+        }
+        ShiftEvent::None
+    }
+
+    fn cross(&mut self, now: Ticks) {
+        self.crossings_seen = self.crossings_seen.saturating_add(1);
+        if self.crossings_seen >= 2 {
+            self.t60 = ((now.0 - self.last_cross.0) / CLK).clamp(1, COUNTER_MAX);
+            self.measured = true;
+        }
+        self.last_cross = now;
+        self.sector = (self.sector + 1) % 6;
+        let (num, den) = self.table.post_fraction();
+        let post = self.t60 * num / den;
+        self.post_end = Ticks(now.0 + post * CLK);
+        self.in_pre = false;
+        if post == 0 {
+            self.enter_pre(now);
+        }
+    }
+
+    /// The sector in force.
+    pub fn sector(&self) -> Sector {
+        self.table.sector(self.sector)
+    }
+
+    /// Sector index 0..5.
+    pub fn sector_index(&self) -> usize {
+        self.sector
+    }
+
+    /// Whether the pre (floating, sensing) part is in force.
+    pub fn in_pre(&self) -> bool {
+        self.in_pre
+    }
+
+    /// The pattern in force.
+    pub fn pattern(&self) -> Pattern {
+        let s = self.sector();
+        if self.in_pre { s.pre } else { s.post }
+    }
+
+    /// State number in force (1..12 twelve-step, 1..6 six-step).
+    pub fn state(&self) -> u8 {
+        let s = self.sector();
+        if self.in_pre { s.states.1 } else { s.states.0 }
+    }
+
+    /// The phase whose comparator forms Z_d: the floating one in the pre part, the one
+    /// that just crossed in the post part (so Z_d is 60° high, 60° low).
+    pub fn zd_phase(&self) -> Phase {
+        if self.in_pre {
+            self.sector().sensed
+        } else {
+            self.table.sector(self.sector + 5).sensed
+        }
+    }
+
+    /// Last t_60 [0.64 µs clocks] and whether it was measured (else the hand-over value).
+    pub fn t60(&self) -> (u64, bool) {
+        (self.t60, self.measured)
+    }
+
+    /// The instant of the last accepted crossing (or of the hand-over).
+    pub fn last_crossing(&self) -> Ticks {
+        self.last_cross
+    }
+
+    /// Where the next crossing is expected: one t_60 after the last, once t_60 is measured.
+    pub fn expected_crossing(&self) -> Option<Ticks> {
+        self.measured
+            .then(|| Ticks(self.last_cross.0 + self.t60 * CLK))
+    }
+
+    /// When the post part ends (`None` in the pre part).
+    pub fn post_end(&self) -> Option<Ticks> {
+        (!self.in_pre).then_some(self.post_end)
+    }
+
+    /// Whether the detector is armed.
+    pub fn armed(&self) -> bool {
+        self.armed
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::table::Table;
+
+    /// Drives a shifter with a clean Z_d of 60° period `t60` clocks: the sensed phase is at
+    /// its pre level until the crossing at 60°·k, then at its post level. Returns the
+    /// (instant, event, state) of every event over `n` sectors.
+    fn run_clean(table: Table, t60: u64, n: u64) -> Vec<(u64, ShiftEvent, u8)> {
+        let mut s = PhaseShifter::new(table, Ticks(320));
+        // Hand over in sector 0 at t = 0, before the crossing at 60° = t60 clocks.
+        s.hand_over(0, Ticks(0), t60);
+        let mut log = Vec::new();
+        let mut crossed = 0u64;
+        let mut t = 0;
+        while t <= n * t60 * CLK {
+            let now = Ticks(t);
+            if s.poll(now) == ShiftEvent::Commutation {
+                log.push((t, ShiftEvent::Commutation, s.state()));
+            }
+            let post_level = s.sector().rising;
+            let past = t >= (crossed + 1) * t60 * CLK;
+            let level = if past { post_level } else { !post_level };
+            if s.observe(now, level, true) == ShiftEvent::Crossing {
+                crossed += 1;
+                log.push((t, ShiftEvent::Crossing, s.state()));
+            }
+            t += CLK;
+        }
+        log
+    }
+
+    #[test]
+    fn six_step_commutates_30_degrees_after_each_crossing() {
+        let t60 = 1000;
+        let log = run_clean(Table::SixStep, t60, 8);
+        let crossings: Vec<u64> = log
+            .iter()
+            .filter(|e| e.1 == ShiftEvent::Crossing)
+            .map(|e| e.0)
+            .collect();
+        // Crossings at k·t60 clocks, exactly (clean signal, sampled on the clock grid).
+        for (i, &c) in crossings.iter().enumerate() {
+            assert_eq!(c, (i as u64 + 1) * t60 * CLK, "crossing {i}");
+        }
+        // Each commutation follows its crossing by 30° (t_60 / 2).
+        let coms: Vec<(u64, u8)> = log
+            .iter()
+            .filter(|e| e.1 == ShiftEvent::Commutation)
+            .map(|e| (e.0, e.2))
+            .collect();
+        for &(t, _) in &coms {
+            assert_eq!((t / CLK) % t60, t60 / 2, "commutation at {t} not 30° after");
+        }
+        assert!(coms.len() >= 6);
+        // States advance 1..6 in order.
+        for w in coms.windows(2) {
+            assert_eq!(w[1].1, w[0].1 % 6 + 1);
+        }
+    }
+
+    #[test]
+    fn twelve_step_switches_at_the_crossing_and_30_degrees_later() {
+        let t60 = 1200;
+        let log = run_clean(
+            Table::TwelveStep {
+                conduction_deg: 150.0,
+            },
+            t60,
+            8,
+        );
+        let mut last_state = 2; // hand-over in sector 0's pre part = state 2
+        for &(t, ev, state) in &log {
+            let phase = (t / CLK) % t60;
+            match ev {
+                ShiftEvent::Crossing => {
+                    assert_eq!(phase, 0, "crossing at {t}");
+                    assert_eq!(state % 2, 1, "3-phase state after a crossing");
+                }
+                ShiftEvent::Commutation => {
+                    assert_eq!(phase, t60 / 2, "2-phase state 30° later, at {t}");
+                    assert_eq!(state % 2, 0);
+                }
+                ShiftEvent::None => unreachable!(),
+            }
+            assert_eq!(state, last_state % 12 + 1, "states in order");
+            last_state = state;
+        }
+        assert!(log.len() >= 14);
+    }
+
+    #[test]
+    fn wider_conduction_shortens_the_floating_window() {
+        let t60 = 1200;
+        let log = run_clean(
+            Table::TwelveStep {
+                conduction_deg: 165.0,
+            },
+            t60,
+            6,
+        );
+        for &(t, ev, _) in &log {
+            if ev == ShiftEvent::Commutation {
+                // (165 − 120)/60 = 3/4 of t60 after the crossing.
+                assert_eq!((t / CLK) % t60, 900, "at {t}");
+            }
+        }
+    }
+
+    #[test]
+    fn freewheel_after_a_commutation_is_not_taken_for_a_crossing() {
+        let mut s = PhaseShifter::new(
+            Table::TwelveStep {
+                conduction_deg: 150.0,
+            },
+            Ticks(320),
+        );
+        s.hand_over(0, Ticks(0), 1000);
+        // First crossing (armed by the hand-over), then the 30° post part.
+        let post = s.sector().rising; // sector 0: w falling → post level 0
+        assert_eq!(s.observe(Ticks(32_000), post, true), ShiftEvent::Crossing);
+        let t_com = s.post_end().unwrap();
+        assert_eq!(s.poll(t_com), ShiftEvent::Commutation);
+        let post = s.sector().rising;
+        // At the commutation edge the comparator still shows the pre level (left over);
+        // 1 µs later the freewheel clamp shows the post level: not armed, no crossing.
+        assert_eq!(s.observe(t_com, !post, true), ShiftEvent::None);
+        assert_eq!(s.observe(Ticks(t_com.0 + 64), post, true), ShiftEvent::None);
+        assert!(!s.armed());
+        // Freewheel ends (pre level), then the real crossing.
+        assert_eq!(
+            s.observe(Ticks(t_com.0 + 3200), !post, true),
+            ShiftEvent::None
+        );
+        assert_eq!(
+            s.observe(Ticks(t_com.0 + 9600), post, true),
+            ShiftEvent::Crossing
+        );
+        // No freewheel at all: the pre level held past the blanking time also arms.
+        let t_com = s.post_end().unwrap();
+        s.poll(t_com);
+        let post = s.sector().rising;
+        s.observe(t_com, !post, true);
+        assert_eq!(
+            s.observe(Ticks(t_com.0 + 640), post, true),
+            ShiftEvent::Crossing
+        );
+    }
+
+    #[test]
+    fn a_closed_window_holds_a_crossing_until_it_opens() {
+        let mut s = PhaseShifter::new(Table::SixStep, Ticks(320));
+        s.hand_over(0, Ticks(0), 1000);
+        let post = s.sector().rising;
+        assert_eq!(s.observe(Ticks(3200), post, false), ShiftEvent::None);
+        assert_eq!(s.observe(Ticks(6400), post, true), ShiftEvent::Crossing);
+    }
+}
