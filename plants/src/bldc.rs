@@ -3,7 +3,7 @@
 //! State: phase currents i_u, i_v, i_w [A], mechanical speed ωm [rad/s], electrical angle
 //! θe [rad, wrapped to 0..2π], plus energy integrals [J]. Between events the state is
 //! integrated with classical RK4 (step ≤ `solver.max_step_s`); the conduction topology is
-//! constant within a step. Mechanics: J·dωm/dt = Te − Bm·ωm − TL, dθe/dt = (P/2)·ωm,
+//! constant within a step. Mechanics: J·dωm/dt = Te − Bm·ωm − Tc·tanh(ωm/ω0) − TL, dθe/dt = (P/2)·ωm,
 //! Te = (P/2)·λr·Σ i_x·f(θx) so that Te·ωm = Σ e_x·i_x exactly.
 //!
 //! Events located in time (Illinois regula falsi on the RK4 solution, to 0.1 ns): a freewheeling
@@ -37,13 +37,13 @@ pub struct EnergyLedger {
     pub diode: f64,
     /// Shunt loss.
     pub shunt: f64,
-    /// Viscous friction loss ∫Bm·ωm².
+    /// Friction loss ∫(Bm·ωm + Tc·tanh(ωm/ω0))·ωm.
     pub friction: f64,
     /// Work done on the load ∫TL·ωm.
     pub load: f64,
     /// Electromechanical conversion ∫Σe·i.
     pub airgap: f64,
-    /// Absorbed by the dynamometer holding a speed-locked rotor ∫(Te − Bm·ωm − TL)·ωm.
+    /// Absorbed by the dynamometer holding a speed-locked rotor ∫(Te − friction − TL)·ωm.
     pub dynamometer: f64,
     /// Magnetic energy stored now: ½(Lp + M)·Σi².
     pub magnetic: f64,
@@ -149,6 +149,8 @@ pub struct BldcPlant {
     lambda: f64,
     inertia: f64,
     friction: f64,
+    coulomb: f64,
+    coulomb_speed: f64,
     inductance: f64,
     h_max: f64,
     x: State,
@@ -199,6 +201,8 @@ impl BldcPlant {
             lambda: m.flux_linkage_wb,
             inertia: m.inertia_kgm2,
             friction: m.viscous_friction_nms,
+            coulomb: m.coulomb_friction_nm,
+            coulomb_speed: m.coulomb_speed_rad_s,
             inductance: m.phase_inductance_h(),
             h_max: params.solver.max_step_s,
             x,
@@ -296,7 +300,8 @@ impl BldcPlant {
         let (di, p) = self.lin.eval(&i, &e);
         let wm = x[OMEGA];
         let te = self.pp * self.lambda * (i[0] * f.u + i[1] * f.v + i[2] * f.w);
-        let net = te - self.friction * wm - self.load_nm;
+        let drag = self.friction * wm + self.coulomb * (wm / self.coulomb_speed).tanh();
+        let net = te - drag - self.load_nm;
         // A locked rotor is held by a dynamometer, which absorbs the net torque.
         let (dw, p_dyno) = if self.speed_lock {
             (0.0, net * wm)
@@ -314,7 +319,7 @@ impl BldcPlant {
             p.switch,
             p.diode,
             p.shunt,
-            self.friction * wm * wm,
+            drag * wm,
             self.load_nm * wm,
             p.airgap,
             p_dyno,

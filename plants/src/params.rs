@@ -49,11 +49,23 @@ pub struct MotorParams {
     /// Viscous friction Bm [N·m·s/rad]. Default 1.0e-6. Rule: ≥ 0.
     ///
     /// The printed 5e-3 N·m/(rad/s) would need 0.52 N·m (≈ 70 A) at 1000 rpm, impossible for
-    /// a motor sensed over 0–0.5 A. 1.0e-6 gives 0.52 mN·m at 5000 rpm, i.e. a no-load current
-    /// of ≈ 0.07 A with this motor's torque constant (≈ 7.6 mN·m/A in 120° drive): typical of
-    /// optical-drive spindles and leaves the 0.5 A range for load and acceleration. The
-    /// mechanical time constant J/Bm is then 1.7 s.
+    /// a motor sensed over 0–0.5 A. 1.0e-6 gives 0.52 mN·m at 5000 rpm; with the Coulomb
+    /// drag below the no-load torque is 0.77 mN·m, i.e. ≈ 0.1 A with this motor's torque
+    /// constant (≈ 7.6 mN·m/A in 120° drive): typical of optical-drive spindles and leaves
+    /// the 0.5 A range for load and acceleration. J/Bm is 1.7 s.
     pub viscous_friction_nms: f64,
+    /// Coulomb (bearing) drag torque Tc [N·m], applied as Tc·tanh(ωm/ω0). Default 2.5e-4.
+    /// Rule: ≥ 0.
+    ///
+    /// Viscous friction alone leaves a rotor held by an aligning current an almost undamped
+    /// oscillator (ζ ≈ 0.003 at ≈ 19 Hz with 0.5 A), so the chip's 0.7 s alignment would never
+    /// settle. A dry drag torque of 0.25 mN·m removes ≈ 2·Tc/k ≈ 7° electrical of swing per
+    /// half cycle, settling a 180° initial error well within the 0.7 s.
+    pub coulomb_friction_nm: f64,
+    /// Regularisation speed ω0 of the Coulomb drag [rad/s]: below it the drag acts as a
+    /// steep viscous term instead of a discontinuity (no stick-slip events). Default 0.5.
+    /// Rule: > 0.
+    pub coulomb_speed_rad_s: f64,
     /// Back-EMF shape. Default sinusoidal (published).
     pub back_emf: BackEmfShape,
 }
@@ -68,6 +80,8 @@ impl Default for MotorParams {
             resistance_ohm: 2.2,
             inertia_kgm2: 17e-7,
             viscous_friction_nms: 1.0e-6,
+            coulomb_friction_nm: 2.5e-4,
+            coulomb_speed_rad_s: 0.5,
             back_emf: BackEmfShape::Sinusoidal,
         }
     }
@@ -89,6 +103,8 @@ impl MotorParams {
         check_positive("motor.resistance_ohm", self.resistance_ohm)?;
         check_positive("motor.inertia_kgm2", self.inertia_kgm2)?;
         check_non_negative("motor.viscous_friction_nms", self.viscous_friction_nms)?;
+        check_non_negative("motor.coulomb_friction_nm", self.coulomb_friction_nm)?;
+        check_positive("motor.coulomb_speed_rad_s", self.coulomb_speed_rad_s)?;
         match self.back_emf {
             BackEmfShape::Sinusoidal => {}
             BackEmfShape::Trapezoidal { flat_top_deg } => check_range(

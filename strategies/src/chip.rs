@@ -79,6 +79,8 @@ pub struct ChipStatus {
     pub restarts: u32,
     /// Accepted zero crossings since the last hand-over.
     pub crossings: u64,
+    /// Of those, crossings taken by the demagnetisation timeout.
+    pub forced_crossings: u64,
 }
 
 /// The chip's controller.
@@ -249,6 +251,7 @@ impl Chip {
             current_ref_a: self.speed_pi.output(),
             restarts: self.restarts,
             crossings: self.crossings,
+            forced_crossings: self.shifter.forced_crossings(),
         }
     }
 
@@ -256,7 +259,7 @@ impl Chip {
         if self.linear { self.top } else { self.cv }
     }
 
-    fn to_off(&mut self) {
+    fn switch_off(&mut self) {
         self.mode = Mode::Off;
         self.pattern = ALL_FLOAT;
         self.cv = 0;
@@ -296,7 +299,7 @@ impl Chip {
     fn restart(&mut self, now: Ticks) {
         self.restarts += 1;
         if self.restarts > self.control.max_restarts {
-            self.to_off();
+            self.switch_off();
             self.mode = Mode::GaveUp;
         } else {
             self.begin_align(now);
@@ -344,7 +347,7 @@ impl Chip {
         if now >= self.next_pi {
             self.pi_update(sensed.current_code);
             while self.next_pi <= now {
-                self.next_pi = self.next_pi + clocks::PI_UPDATE;
+                self.next_pi += clocks::PI_UPDATE;
             }
         }
         if now >= self.step_miss_deadline() {
@@ -382,6 +385,11 @@ impl Chip {
                 {
                     w = w.min(s);
                 }
+                if let Some(s) = self.shifter.demag_timeout()
+                    && s > now
+                {
+                    w = w.min(s);
+                }
                 if self.shifter.in_pre()
                     && let Some(s) = self.guard.filter.settles_at()
                     && self.guard.kind == GuardKind::Df
@@ -401,7 +409,7 @@ impl Controller for Chip {
 
     fn tick(&mut self, now: Ticks, sensed: &Sensed) -> Command {
         if self.reset {
-            self.to_off();
+            self.switch_off();
             self.restarts = 0;
         } else {
             match self.mode {
@@ -413,7 +421,7 @@ impl Controller for Chip {
                 Mode::GaveUp => {}
                 Mode::Aligning { step, until } => {
                     if !self.start {
-                        self.to_off();
+                        self.switch_off();
                     } else if now >= until {
                         let next = usize::from(step) + 1;
                         if next < ALIGN_PATTERNS.len() {
@@ -432,7 +440,7 @@ impl Controller for Chip {
                     if self.start {
                         self.run(now, sensed);
                     } else {
-                        self.to_off();
+                        self.switch_off();
                     }
                 }
             }

@@ -30,7 +30,9 @@ pub struct ControlParams {
     /// Rule: ≥ 0.
     pub current_ki: f64,
     /// Current command limit: output and integrator saturation of the speed PI [A].
-    /// Default 0.5 (ADC full scale). Rule: 0 < x ≤ 10.
+    /// Default 0.4. It must stay below the current sense's full scale (0.5 A with the
+    /// default sensing: the amplifier clips at 10 V), or a clipped reading can never exceed
+    /// the command and the current loop stops limiting. Rule: 0 < x ≤ 10.
     pub current_limit_a: f64,
     /// Back-calculation anti-windup on the current PI. Default true.
     pub anti_windup: bool,
@@ -69,7 +71,7 @@ impl Default for ControlParams {
             speed_ki: 1.0e-5,
             current_kp: 500.0,
             current_ki: 800.0,
-            current_limit_a: 0.5,
+            current_limit_a: 0.4,
             anti_windup: true,
             anti_windup_gain: 32.0,
             startup_duty: 0.2,

@@ -14,6 +14,12 @@
 //! pre-crossing level either begin after the commutation (the freewheel ended) or last
 //! longer than the blanking time (there was no freewheel, and the level it saw was not
 //! left over from before the commutation).
+//!
+//! **Demagnetisation timeout.** With a long freewheel (high current, low duty) the crossing
+//! can pass while the terminal is still clamped, so the pre level is never seen. Once the
+//! expected crossing instant (last crossing + t_60) has passed with the post level showing,
+//! the shifter takes it as a late crossing, like production sensorless firmware does; such
+//! crossings are counted ([`PhaseShifter::forced_crossings`]).
 
 use crate::table::{Sector, Table};
 use drive_core::{Pattern, Phase, Ticks, clocks};
@@ -47,6 +53,7 @@ pub struct PhaseShifter {
     post_end: Ticks,
     armed: bool,
     pre_run: Option<Ticks>,
+    forced: u64,
 }
 
 const CLK: u64 = clocks::COMMUTATION.0;
@@ -67,6 +74,7 @@ impl PhaseShifter {
             post_end: Ticks::NEVER,
             armed: false,
             pre_run: None,
+            forced: 0,
         }
     }
 
@@ -121,7 +129,11 @@ impl PhaseShifter {
         {
             self.armed = true;
         }
-        if self.armed && window_open {
+        let overdue = self.expected_crossing().is_some_and(|e| now >= e);
+        if (self.armed || overdue) && window_open {
+            if !self.armed {
+                self.forced += 1;
+            }
             self.cross(now);
             return ShiftEvent::Crossing;
         }
@@ -201,6 +213,21 @@ impl PhaseShifter {
     /// When the post part ends (`None` in the pre part).
     pub fn post_end(&self) -> Option<Ticks> {
         (!self.in_pre).then_some(self.post_end)
+    }
+
+    /// Crossings accepted by the demagnetisation timeout (never armed).
+    pub fn forced_crossings(&self) -> u64 {
+        self.forced
+    }
+
+    /// The instant from which a post level is accepted without arming, while in the pre
+    /// part and not armed (the controller must be woken there).
+    pub fn demag_timeout(&self) -> Option<Ticks> {
+        if self.in_pre && !self.armed {
+            self.expected_crossing()
+        } else {
+            None
+        }
     }
 
     /// Whether the detector is armed.
