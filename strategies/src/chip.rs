@@ -390,6 +390,10 @@ impl Chip {
                 {
                     w = w.min(s);
                 }
+                let s = self.shifter.earliest_crossing();
+                if self.shifter.in_pre() && s > now {
+                    w = w.min(s);
+                }
                 if self.shifter.in_pre()
                     && let Some(s) = self.guard.filter.settles_at()
                     && self.guard.kind == GuardKind::Df

@@ -15,11 +15,17 @@
 //! longer than the blanking time (there was no freewheel, and the level it saw was not
 //! left over from before the commutation).
 //!
+//! **Plausibility.** A crossing earlier than ¾·t_60 after the last one is not accepted:
+//! the rotor cannot shorten its 60° time by a quarter within one sector, so such an edge is
+//! interference (at low speed the comparator's PWM-edge glitches outlast any filter), and
+//! accepting it would shorten t_60 and make the next false crossing likelier still.
+//!
 //! **Demagnetisation timeout.** With a long freewheel (high current, low duty) the crossing
 //! can pass while the terminal is still clamped, so the pre level is never seen. Once the
 //! expected crossing instant (last crossing + t_60) has passed with the post level showing,
 //! the shifter takes it as a late crossing, like production sensorless firmware does; such
-//! crossings are counted ([`PhaseShifter::forced_crossings`]).
+//! crossings are counted ([`PhaseShifter::forced_crossings`]). Never twice in a row: a
+//! stalled rotor would otherwise be stepped forever on timeouts, hiding the step miss.
 
 use crate::table::{Sector, Table};
 use drive_core::{Pattern, Phase, Ticks, clocks};
@@ -54,6 +60,7 @@ pub struct PhaseShifter {
     armed: bool,
     pre_run: Option<Ticks>,
     forced: u64,
+    last_forced: bool,
 }
 
 const CLK: u64 = clocks::COMMUTATION.0;
@@ -75,6 +82,7 @@ impl PhaseShifter {
             armed: false,
             pre_run: None,
             forced: 0,
+            last_forced: false,
         }
     }
 
@@ -93,6 +101,7 @@ impl PhaseShifter {
         self.post_end = Ticks::NEVER;
         self.armed = true;
         self.pre_run = None;
+        self.last_forced = false;
     }
 
     /// Runs the post → pre commutation if it is due at `now`.
@@ -129,11 +138,11 @@ impl PhaseShifter {
         {
             self.armed = true;
         }
-        let overdue = self.expected_crossing().is_some_and(|e| now >= e);
-        if (self.armed || overdue) && window_open {
-            if !self.armed {
-                self.forced += 1;
-            }
+        let overdue = self.demag_timeout().is_some_and(|e| now >= e);
+        let plausible = now >= self.earliest_crossing();
+        if (self.armed || overdue) && window_open && plausible {
+            self.last_forced = !self.armed;
+            self.forced += u64::from(self.last_forced);
             self.cross(now);
             return ShiftEvent::Crossing;
         }
@@ -215,6 +224,11 @@ impl PhaseShifter {
         (!self.in_pre).then_some(self.post_end)
     }
 
+    /// The earliest instant a crossing is plausible: ¾·t_60 after the last one.
+    pub fn earliest_crossing(&self) -> Ticks {
+        Ticks(self.last_cross.0 + self.t60 * 3 / 4 * CLK)
+    }
+
     /// Crossings accepted by the demagnetisation timeout (never armed).
     pub fn forced_crossings(&self) -> u64 {
         self.forced
@@ -223,7 +237,7 @@ impl PhaseShifter {
     /// The instant from which a post level is accepted without arming, while in the pre
     /// part and not armed (the controller must be woken there).
     pub fn demag_timeout(&self) -> Option<Ticks> {
-        if self.in_pre && !self.armed {
+        if self.in_pre && !self.armed && !self.last_forced {
             self.expected_crossing()
         } else {
             None
