@@ -1,9 +1,14 @@
 //! bldc-drive: simulation of sensorless brushless-DC motor drives.
 //!
 //! A facade over the workspace crates: [`drive_core`] (engine and traits), [`plants`]
-//! (motor, bridge, sensing) and [`strategies`] (commutation strategies).
+//! (motor, bridge, sensing) and [`strategies`] (commutation strategies), plus the whole
+//! drive's TOML [`config`] and a [`drive`] builder.
 #![forbid(unsafe_code)]
 
+pub mod config;
+pub mod drive;
+
+pub use config::{ConfigError, DriveConfig};
 pub use drive_core;
 pub use plants;
 pub use strategies;

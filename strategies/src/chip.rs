@@ -104,6 +104,7 @@ pub struct Chip {
     fg: bool,
     fg_since: Ticks,
     cv: u32,
+    i_ref: f64,
     linear: bool,
     zd: bool,
     zdf: bool,
@@ -188,6 +189,7 @@ impl Chip {
             fg: false,
             fg_since: Ticks::ZERO,
             cv: 0,
+            i_ref: 0.0,
             linear: false,
             zd: false,
             zdf: false,
@@ -248,7 +250,7 @@ impl Chip {
             linear: self.linear,
             duty: self.duty(),
             speed_est_rpm: self.speed.rpm(),
-            current_ref_a: self.speed_pi.output(),
+            current_ref_a: self.i_ref,
             restarts: self.restarts,
             crossings: self.crossings,
             forced_crossings: self.shifter.forced_crossings(),
@@ -277,6 +279,7 @@ impl Chip {
         self.linear = false;
         self.speed.reset();
         self.speed_pi.set_integrator(0.0);
+        self.i_ref = 0.0;
         self.guard.filter.reset();
     }
 
@@ -356,9 +359,18 @@ impl Chip {
     }
 
     /// Speed PI → current command; current PI → voltage command (SPEC §6).
+    ///
+    /// Until the first FG speed measurement (10 FG periods after hand-over) there is no
+    /// speed to control; the current command is held at its limit so the motor starts with
+    /// full torque, and the speed PI starts from zero when the first measurement arrives.
     fn pi_update(&mut self, current_code: u16) {
-        let speed_error = self.speed_ref_rpm - f64::from(self.speed.rpm());
-        let i_ref = self.speed_pi.update(speed_error);
+        let i_ref = if self.speed.measurements() == 0 {
+            self.control.current_limit_a
+        } else {
+            let speed_error = self.speed_ref_rpm - f64::from(self.speed.rpm());
+            self.speed_pi.update(speed_error)
+        };
+        self.i_ref = i_ref;
         let i = f64::from(current_code) * self.amps_per_code;
         let u = self.current_pi.update(i_ref - i);
         self.cv = (u.round() as u32).min(self.top);

@@ -14,23 +14,34 @@ use std::str::FromStr;
 pub const SPEED_CMD_MAX_RPM: f64 = 16_383.0;
 
 /// Speed and current control, start-up and supervision (`[control]`).
+///
+/// How the default gains were chosen: the "current" the chip regulates is the shunt (DC-link)
+/// current, ≈ duty × phase current, read by one ADC sample per 5.24 ms PI update, so the
+/// current loop is an averaging loop: with ≈ 2.7e-4 A of shunt current per carrier count
+/// near 3000 rpm, Ki = 600 counts/(A·update) gives a per-update loop gain ≈ 0.16 (settling in
+/// ≈ 6 updates, ≈ 30 ms) and Kp = 300 keeps the sampled PWM ripple from dominating the
+/// command. The speed measurement spans 10 FG periods (33 ms at 3000 rpm) and is the
+/// dominant delay, so the speed loop crosses over at a few rad/s: ≈ 2e5 rpm/s per ampere
+/// of shunt current at light load times Kp = 5e-5 A/rpm gives ≈ 10 rad/s, with the PI zero
+/// a decade below (Ki = 1e-6 per update ≈ 1.9e-4 A/(rpm·s)). Verified on the built-in motor:
+/// a 3000 rpm step from standstill settles within ±1 % in ≈ 1 s after hand-over.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct ControlParams {
     /// Speed command ωc [rpm]. Default 3000. Rule: 0..=16383 (14-bit register).
     pub speed_ref_rpm: f64,
-    /// Speed PI proportional gain [A/rpm]. Default 1.0e-4. Rule: ≥ 0.
+    /// Speed PI proportional gain [A/rpm]. Default 5.0e-5. Rule: ≥ 0.
     pub speed_kp: f64,
-    /// Speed PI integral gain per PI update [A/(rpm·update)]. Default 1.0e-5. Rule: ≥ 0.
+    /// Speed PI integral gain per PI update [A/(rpm·update)]. Default 1.0e-6. Rule: ≥ 0.
     /// The continuous-time equivalent is this divided by the PI period (5.24 ms).
     pub speed_ki: f64,
-    /// Current PI proportional gain [carrier counts/A]. Default 500. Rule: ≥ 0.
+    /// Current PI proportional gain [carrier counts/A]. Default 300. Rule: ≥ 0.
     pub current_kp: f64,
-    /// Current PI integral gain per PI update [carrier counts/(A·update)]. Default 800.
+    /// Current PI integral gain per PI update [carrier counts/(A·update)]. Default 600.
     /// Rule: ≥ 0.
     pub current_ki: f64,
     /// Current command limit: output and integrator saturation of the speed PI [A].
-    /// Default 0.4. It must stay below the current sense's full scale (0.5 A with the
+    /// Default 0.25. It must stay below the current sense's full scale (0.5 A with the
     /// default sensing: the amplifier clips at 10 V), or a clipped reading can never exceed
     /// the command and the current loop stops limiting. Rule: 0 < x ≤ 10.
     pub current_limit_a: f64,
@@ -67,11 +78,11 @@ impl Default for ControlParams {
     fn default() -> Self {
         ControlParams {
             speed_ref_rpm: 3000.0,
-            speed_kp: 1.0e-4,
-            speed_ki: 1.0e-5,
-            current_kp: 500.0,
-            current_ki: 800.0,
-            current_limit_a: 0.4,
+            speed_kp: 5.0e-5,
+            speed_ki: 1.0e-6,
+            current_kp: 300.0,
+            current_ki: 600.0,
+            current_limit_a: 0.25,
             anti_windup: true,
             anti_windup_gain: 32.0,
             startup_duty: 0.2,

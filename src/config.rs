@@ -1,0 +1,70 @@
+//! The whole drive in one TOML document: `[motor]`, `[power_stage]`, `[sensing]`,
+//! `[solver]` (plant), `[control]` and `[strategy]` (chip). Every key is optional and
+//! defaults to the documented value; unknown keys and broken rules are errors that name
+//! the key.
+
+use drive_core::error::ParamError;
+use plants::{MotorParams, PlantParams, PowerStageParams, SensingParams, SolverParams};
+use serde::{Deserialize, Serialize};
+use strategies::{ControlParams, StrategyParams};
+
+/// Plant + chip configuration.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct DriveConfig {
+    /// Motor (SPEC §1).
+    pub motor: MotorParams,
+    /// Bridge and supply (SPEC §2).
+    pub power_stage: PowerStageParams,
+    /// Current sense and comparators (SPEC §2).
+    pub sensing: SensingParams,
+    /// Plant integrator.
+    pub solver: SolverParams,
+    /// Speed/current control, start-up, supervision (SPEC §6–§7).
+    pub control: ControlParams,
+    /// Commutation strategy and zero-crossing guard (SPEC §3–§5).
+    pub strategy: StrategyParams,
+}
+
+/// A config that cannot be used.
+#[derive(Debug, thiserror::Error)]
+pub enum ConfigError {
+    /// Not valid TOML, an unknown key, or a value of the wrong type.
+    #[error("config: {0}")]
+    Parse(#[from] toml::de::Error),
+    /// A value that breaks its rule.
+    #[error("config: {0}")]
+    Param(#[from] ParamError),
+}
+
+impl DriveConfig {
+    /// Parses and validates a TOML document.
+    pub fn from_toml(text: &str) -> Result<Self, ConfigError> {
+        let c: DriveConfig = toml::from_str(text)?;
+        c.validate()?;
+        Ok(c)
+    }
+
+    /// The config as a TOML document (every key, with its value).
+    pub fn to_toml(&self) -> String {
+        // Serialising plain structs of numbers, strings and tables cannot fail.
+        toml::to_string(self).unwrap_or_default()
+    }
+
+    /// Checks every rule of every section.
+    pub fn validate(&self) -> Result<(), ParamError> {
+        self.plant_params().validate()?;
+        self.control.validate()?;
+        self.strategy.validate()
+    }
+
+    /// The plant's part.
+    pub fn plant_params(&self) -> PlantParams {
+        PlantParams {
+            motor: self.motor.clone(),
+            power_stage: self.power_stage.clone(),
+            sensing: self.sensing.clone(),
+            solver: self.solver.clone(),
+        }
+    }
+}

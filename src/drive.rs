@@ -1,0 +1,38 @@
+//! A complete drive: the plant and the chip on the engine, built from a [`DriveConfig`].
+
+use crate::config::DriveConfig;
+use drive_core::error::ParamError;
+use drive_core::pwm::HighSideChop;
+use drive_core::{Carrier, Engine, EngineError, Ticks};
+use plants::BldcPlant;
+use strategies::Chip;
+
+/// The engine type of a drive with the chip's high-side chopping.
+pub type DriveEngine = Engine<BldcPlant, Chip, HighSideChop>;
+
+/// Builds the plant and the chip from `config` and puts them on an engine at t = 0, with
+/// the start input held from t = 0.
+pub fn build(config: &DriveConfig) -> Result<DriveEngine, ParamError> {
+    config.validate()?;
+    let plant = BldcPlant::new(config.plant_params())?;
+    let carrier = Carrier::default();
+    let chip = Chip::new(
+        config.control.clone(),
+        config.strategy.clone(),
+        config.motor.poles / 2,
+        plant.current_sense().amps_per_code(),
+        carrier.top,
+    )?;
+    let dead_time = config.power_stage.dead_time();
+    Ok(Engine::new(plant, chip, HighSideChop, carrier, dead_time))
+}
+
+/// Runs `engine` until `t_end_s`, calling `each` after every engine stop.
+pub fn run_to(
+    engine: &mut DriveEngine,
+    t_end_s: f64,
+    each: impl FnMut(&DriveEngine, drive_core::StopReason),
+) -> Result<(), EngineError> {
+    let end = Ticks::from_seconds(t_end_s).unwrap_or(Ticks::NEVER);
+    engine.run_until(end, each)
+}

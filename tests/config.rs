@@ -1,0 +1,108 @@
+//! The drive's TOML config: defaults, round trip, unknown keys, and every rule the chip's
+//! config must enforce, each error naming the key.
+
+use bldc_drive::DriveConfig;
+use bldc_drive::strategies::{GuardKind, StrategyName};
+
+fn refused(toml_text: &str, key: &str) {
+    let err = DriveConfig::from_toml(toml_text)
+        .expect_err(key)
+        .to_string();
+    assert!(err.contains(key), "error `{err}` must name `{key}`");
+}
+
+#[test]
+fn default_config_round_trips_through_toml() {
+    let c = DriveConfig::default();
+    c.validate().unwrap();
+    let text = c.to_toml();
+    for section in [
+        "[motor]",
+        "[power_stage]",
+        "[sensing]",
+        "[control]",
+        "[strategy]",
+    ] {
+        assert!(text.contains(section), "{section} missing from\n{text}");
+    }
+    assert!(text.contains("anti_windup = true"));
+    assert_eq!(DriveConfig::from_toml(&text).unwrap(), c);
+    assert_eq!(DriveConfig::from_toml("").unwrap(), c);
+}
+
+#[test]
+fn strategy_names_and_keys_parse() {
+    let c = DriveConfig::from_toml(
+        "[strategy]\nname = \"twelve-step-lm\"\nlm_speed_max_rpm = 9000\nlm_speed_min_rpm = 500\nconduction_angle_deg = 165.0\n[control]\nanti_windup = false\n",
+    )
+    .unwrap();
+    assert_eq!(c.strategy.name, StrategyName::TwelveStepLm);
+    assert_eq!(c.strategy.guard_kind(), GuardKind::Lm);
+    assert_eq!(c.strategy.conduction_deg(), 165.0);
+    assert!(!c.control.anti_windup);
+    let c =
+        DriveConfig::from_toml("[strategy]\nname = \"six-step-120\"\nguard = \"nd\"\n").unwrap();
+    assert_eq!(c.strategy.guard_kind(), GuardKind::Nd);
+    assert_eq!(c.strategy.conduction_deg(), 120.0);
+    for n in StrategyName::ALL {
+        assert_eq!(n.as_str().parse::<StrategyName>().unwrap(), n);
+    }
+}
+
+#[test]
+fn bad_configs_are_refused_naming_the_key() {
+    refused("[strategy]\nname = \"twelve-step-xx\"\n", "twelve-step-xx");
+    refused("[control]\nspeed_kp_typo = 1.0\n", "speed_kp_typo");
+    refused(
+        "[strategy]\nlm_speed_max_rpm = 1000\nlm_speed_min_rpm = 1000\n",
+        "strategy.lm_speed_max_rpm",
+    );
+    refused(
+        "[strategy]\nlm_speed_max_rpm = 900\nlm_speed_min_rpm = 1000\n",
+        "strategy.lm_speed_max_rpm",
+    );
+    refused(
+        "[strategy]\nlinear_region_deg = 0\n",
+        "strategy.linear_region_deg",
+    );
+    refused(
+        "[strategy]\nlinear_region_deg = 61\n",
+        "strategy.linear_region_deg",
+    );
+    refused(
+        "[strategy]\nconduction_angle_deg = 119.0\n",
+        "strategy.conduction_angle_deg",
+    );
+    refused(
+        "[strategy]\nconduction_angle_deg = 180.0\n",
+        "strategy.conduction_angle_deg",
+    );
+    refused(
+        "[strategy]\nname = \"six-step-120\"\nconduction_angle_deg = 150.0\n",
+        "strategy.conduction_angle_deg",
+    );
+    refused(
+        "[strategy]\nname = \"twelve-step-df\"\nguard = \"nd\"\n",
+        "strategy.guard",
+    );
+    refused(
+        "[strategy]\nfilter_samples = 0\n",
+        "strategy.filter_samples",
+    );
+    refused("[control]\nspeed_kp = -1.0\n", "control.speed_kp");
+    refused("[control]\ncurrent_ki = -0.5\n", "control.current_ki");
+    refused(
+        "[control]\nspeed_ref_rpm = 20000.0\n",
+        "control.speed_ref_rpm",
+    );
+    refused("[control]\nstartup_duty = 0.0\n", "control.startup_duty");
+    refused(
+        "[control]\nalign_s = [0.7, 0.0, 0.015]\n",
+        "control.align_s[1]",
+    );
+    refused("[motor]\nresistance_ohm = -2.2\n", "motor.resistance_ohm");
+    refused(
+        "[motor]\ncoulomb_friction_nm = -1e-4\n",
+        "motor.coulomb_friction_nm",
+    );
+}
