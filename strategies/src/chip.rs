@@ -474,3 +474,118 @@ impl Controller for Chip {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::table::flag_of;
+
+    fn chip(max_restarts: u32) -> Chip {
+        let control = ControlParams {
+            max_restarts,
+            ..ControlParams::default()
+        };
+        Chip::new(control, StrategyParams::default(), 6, 0.5 / 4095.0, 2000).unwrap()
+    }
+
+    /// Runs the chip the way the engine does with constant inputs: at t = 0, then at each
+    /// requested wake-up (rounded up to the 0.64 µs clock). Returns (instant, command).
+    fn next(c: &mut Chip, now: &mut Ticks, cmd: &Command) -> Command {
+        *now = cmd
+            .wake_at
+            .max(Ticks(now.0 + 1))
+            .next_edge(clocks::COMMUTATION);
+        c.tick(*now, &Sensed::default())
+    }
+
+    #[test]
+    fn start_is_debounced_for_31_master_clocks() {
+        let mut c = chip(5);
+        c.set_start(Ticks::ZERO, false);
+        let cmd = c.tick(Ticks::ZERO, &Sensed::default());
+        assert_eq!(cmd.wake_at, Ticks::NEVER);
+        c.set_start(Ticks(100), true);
+        let cmd = c.tick(Ticks(128), &Sensed::default());
+        assert_eq!(c.status().mode, Mode::Off, "held 28 clocks only");
+        assert_eq!(cmd.wake_at, Ticks(131));
+        c.tick(Ticks(160), &Sensed::default());
+        assert!(matches!(c.status().mode, Mode::Aligning { step: 0, .. }));
+    }
+
+    #[test]
+    fn alignment_runs_the_three_steps_for_their_durations_then_hands_over() {
+        let mut c = chip(5);
+        let mut now = Ticks::ZERO;
+        let mut cmd = c.tick(now, &Sensed::default());
+        assert_eq!(cmd.pattern, ALL_FLOAT);
+        // Debounce ends at 31 → first 0.64 µs edge 32: step 0 (u→v, flag 0100).
+        cmd = next(&mut c, &mut now, &cmd);
+        assert_eq!(now, Ticks(32));
+        assert_eq!(flag_of(&cmd.pattern), Some(0b0100));
+        assert_eq!(cmd.duty, 400, "startup duty 0.2 of 2000");
+        // Durations on the 327.68 µs align clock: round(0.7 s) = 2136, round(38 ms) = 116,
+        // round(15 ms) = 46 periods, each step starting at the next align edge.
+        let a = clocks::ALIGN.0;
+        let ends = [
+            a * (1 + 2136),
+            a * (1 + 2136 + 116),
+            a * (1 + 2136 + 116 + 46),
+        ];
+        let flags = [0b0000, 0b0001];
+        for (k, &end) in ends.iter().enumerate() {
+            cmd = next(&mut c, &mut now, &cmd);
+            assert_eq!(now, Ticks(end), "end of step {k}");
+            if k < 2 {
+                assert_eq!(flag_of(&cmd.pattern), Some(flags[k]), "step {}", k + 1);
+            }
+        }
+        // Hand-over: closed loop in state 8 (the last alignment pattern, w floating).
+        assert_eq!(c.status().mode, Mode::Running);
+        assert_eq!(c.status().state, 8);
+        assert_eq!(flag_of(&cmd.pattern), Some(0b0001));
+        assert!(cmd.watch.w && !cmd.watch.u && !cmd.watch.v);
+        let total_s = Ticks(ends[2]).seconds();
+        assert!(
+            (total_s - (0.7 + 0.038 + 0.015)).abs() < 0.5e-3,
+            "{total_s}"
+        );
+    }
+
+    #[test]
+    fn a_step_miss_forces_off_restarts_and_gives_up_after_the_limit() {
+        let mut c = chip(1);
+        let mut now = Ticks::ZERO;
+        let mut cmd = c.tick(now, &Sensed::default());
+        while c.status().mode != Mode::Running {
+            cmd = next(&mut c, &mut now, &cmd);
+        }
+        let handover = now;
+        // No crossing ever comes (w stays below neutral): FG_c never changes.
+        while c.status().restarts == 0 {
+            cmd = next(&mut c, &mut now, &cmd);
+        }
+        // 0.05 s on the 40.96 µs clock: round(1220.7) = 1221 periods after the first edge.
+        let deadline = handover.next_edge(clocks::STEP_MISS).0 + 1221 * clocks::STEP_MISS.0;
+        assert_eq!(now, Ticks(deadline));
+        assert!(matches!(c.status().mode, Mode::Aligning { step: 0, .. }));
+        assert_eq!(flag_of(&cmd.pattern), Some(0b0100), "restarted alignment");
+        while c.status().restarts == 1 {
+            cmd = next(&mut c, &mut now, &cmd);
+        }
+        assert_eq!(c.status().mode, Mode::GaveUp);
+        assert_eq!(c.status().restarts, 2);
+        assert_eq!(cmd.pattern, ALL_FLOAT);
+        assert_eq!(c.status().flag, OFF_FLAG);
+        assert_eq!(cmd.wake_at, Ticks::NEVER);
+        // Reset clears it; releasing reset starts again after the debounce.
+        c.set_reset(true);
+        c.tick(Ticks(now.0 + 32), &Sensed::default());
+        assert_eq!(c.status().mode, Mode::Off);
+        assert_eq!(c.status().restarts, 0);
+        c.set_reset(false);
+        c.set_start(Ticks(now.0 + 64), false);
+        c.set_start(Ticks(now.0 + 64), true);
+        c.tick(Ticks(now.0 + 128), &Sensed::default());
+        assert!(matches!(c.status().mode, Mode::Aligning { .. }));
+    }
+}
