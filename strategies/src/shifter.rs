@@ -388,15 +388,15 @@ mod tests {
             s.observe(Ticks(t_com.0 + 9600), post, true),
             ShiftEvent::Crossing
         );
-        // No freewheel at all: the pre level held past the blanking time also arms.
+        // No freewheel at all: the pre level held past the blanking time also arms. (t_60
+        // is now measured, 800 clocks, so the next crossing is plausible from ¾ of it.)
         let t_com = s.post_end().unwrap();
         s.poll(t_com);
         let post = s.sector().rising;
         s.observe(t_com, !post, true);
-        assert_eq!(
-            s.observe(Ticks(t_com.0 + 640), post, true),
-            ShiftEvent::Crossing
-        );
+        let at = Ticks(s.earliest_crossing().0 + 64);
+        assert!(at.0 - t_com.0 >= 320, "past the blanking time");
+        assert_eq!(s.observe(at, post, true), ShiftEvent::Crossing);
     }
 
     #[test]
@@ -404,7 +404,80 @@ mod tests {
         let mut s = PhaseShifter::new(Table::SixStep, Ticks(320));
         s.hand_over(0, Ticks(0), 1000);
         let post = s.sector().rising;
-        assert_eq!(s.observe(Ticks(3200), post, false), ShiftEvent::None);
-        assert_eq!(s.observe(Ticks(6400), post, true), ShiftEvent::Crossing);
+        assert_eq!(s.observe(Ticks(25_600), post, false), ShiftEvent::None);
+        assert_eq!(s.observe(Ticks(28_800), post, true), ShiftEvent::Crossing);
+    }
+
+    /// Crossing after the hand-over, then a measured t_60 of 1000 clocks.
+    fn measured() -> PhaseShifter {
+        let mut s = PhaseShifter::new(
+            Table::TwelveStep {
+                conduction_deg: 150.0,
+            },
+            Ticks(320),
+        );
+        s.hand_over(0, Ticks(0), 1000);
+        for k in 1..=2u64 {
+            let post = s.sector().rising;
+            let t = Ticks(k * 32_000);
+            assert_eq!(s.observe(t, post, true), ShiftEvent::Crossing);
+            let tc = s.post_end().unwrap();
+            s.poll(tc);
+            s.observe(tc, !s.sector().rising, true);
+        }
+        assert_eq!(s.t60(), (1000, true));
+        s
+    }
+
+    #[test]
+    fn crossings_earlier_than_three_quarters_of_t60_are_not_plausible() {
+        let mut s = measured();
+        let post = s.sector().rising;
+        // Armed (pre level since the commutation, past blanking), post level at 0.7·t60:
+        // interference; at 0.75·t60 it is accepted.
+        assert_eq!(
+            s.observe(Ticks(64_000 + 22_400), post, true),
+            ShiftEvent::None
+        );
+        assert_eq!(
+            s.observe(Ticks(64_000 + 23_968), !post, true),
+            ShiftEvent::None
+        );
+        assert_eq!(
+            s.observe(Ticks(64_000 + 24_000), post, true),
+            ShiftEvent::Crossing
+        );
+    }
+
+    #[test]
+    fn a_crossing_hidden_by_the_freewheel_is_taken_at_the_timeout_but_not_twice() {
+        let mut s = PhaseShifter::new(
+            Table::TwelveStep {
+                conduction_deg: 150.0,
+            },
+            Ticks(320),
+        );
+        s.hand_over(0, Ticks(0), 1000);
+        for k in 1..=2u64 {
+            let post = s.sector().rising;
+            s.observe(Ticks(k * 32_000), post, true);
+            let tc = s.post_end().unwrap();
+            s.poll(tc);
+            if k == 1 {
+                s.observe(tc, !s.sector().rising, true);
+            }
+        }
+        // Sector entered at 80 000 with the post level only (clamped, never armed).
+        let post = s.sector().rising;
+        assert_eq!(s.observe(Ticks(80_032), post, true), ShiftEvent::None);
+        assert_eq!(s.demag_timeout(), Some(Ticks(96_000)));
+        assert_eq!(s.observe(Ticks(96_000), post, true), ShiftEvent::Crossing);
+        assert_eq!(s.forced_crossings(), 1);
+        // The next sector shows the post level only as well: no second forced crossing.
+        let tc = s.post_end().unwrap();
+        s.poll(tc);
+        assert_eq!(s.demag_timeout(), None);
+        let post = s.sector().rising;
+        assert_eq!(s.observe(Ticks(200_000), post, true), ShiftEvent::None);
     }
 }
