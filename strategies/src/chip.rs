@@ -330,8 +330,7 @@ impl Chip {
         let level = self.guard.detect_level(now, z);
         self.zd = z;
         self.zdf = level;
-        let open = self.window_start().is_none_or(|w| now >= w);
-        if self.shifter.observe(now, level, open) == ShiftEvent::Crossing {
+        if self.shifter.observe(now, level) == ShiftEvent::Crossing {
             self.crossings += 1;
             // With an empty post part the sensed phase changed at this same edge.
             let z = sensed.zc.get(self.shifter.zd_phase());
@@ -361,11 +360,11 @@ impl Chip {
     /// Speed PI → current command; current PI → voltage command (SPEC §6).
     ///
     /// Until the first FG speed measurement (10 FG periods after hand-over) there is no
-    /// speed to control; the current command is held at its limit so the motor starts with
-    /// full torque, and the speed PI starts from zero when the first measurement arrives.
+    /// speed to control; the current command is held at `start_current_a`, and the speed PI
+    /// starts from zero when the first measurement arrives.
     fn pi_update(&mut self, current_code: u16) {
         let i_ref = if self.speed.measurements() == 0 {
-            self.control.current_limit_a
+            self.control.start_current_a
         } else {
             let speed_error = self.speed_ref_rpm - f64::from(self.speed.rpm());
             self.speed_pi.update(speed_error)

@@ -2,7 +2,9 @@
 //!
 //! - `raw`: the comparator output is used as is.
 //! - `nd`: a linear region of θZC = `linear_region_deg` before each expected crossing, in
-//!   which PWM stops (duty 1) and crossings are accepted; PWM resumes at the crossing.
+//!   which PWM stops (duty 1) so the comparator sees no switching edges; PWM resumes at the
+//!   detected crossing. Detection itself stays on everywhere: a crossing that comes before
+//!   the window (accelerating rotor, LM's narrow window at low speed) is taken under PWM.
 //! - `lm`: the same window, shrunk with the measured speed ω (whole degrees, as the chip):
 //!   θZC = 1° + (θmax − 1°)·(ω − ωm)/(ωM − ωm), clamped to [1°, θmax].
 //! - `df`: PWM never stops; Z_d goes through the [`DigitalFilter`] first.

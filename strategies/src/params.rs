@@ -45,6 +45,11 @@ pub struct ControlParams {
     /// default sensing: the amplifier clips at 10 V), or a clipped reading can never exceed
     /// the command and the current loop stops limiting. Rule: 0 < x ≤ 10.
     pub current_limit_a: f64,
+    /// Current command from the hand-over until the first FG speed measurement [A]: the
+    /// speed PI has nothing to act on before it. Default 0.15. Rule: 0 < x ≤
+    /// `current_limit_a`. Too much and the shifter, which times each commutation from the
+    /// previous 60° interval, falls behind a rotor accelerating from near standstill.
+    pub start_current_a: f64,
     /// Back-calculation anti-windup on the current PI. Default true.
     pub anti_windup: bool,
     /// Back-calculation gain k_s: the integrator input is reduced by k_s·(uc − limit)
@@ -83,6 +88,7 @@ impl Default for ControlParams {
             current_kp: 300.0,
             current_ki: 600.0,
             current_limit_a: 0.25,
+            start_current_a: 0.15,
             anti_windup: true,
             anti_windup_gain: 32.0,
             startup_duty: 0.2,
@@ -115,6 +121,13 @@ impl ControlParams {
                 "control.current_limit_a",
                 self.current_limit_a,
                 "must be in (0, 10] A",
+            ));
+        }
+        if !(self.start_current_a > 0.0 && self.start_current_a <= self.current_limit_a) {
+            return Err(ParamError::new(
+                "control.start_current_a",
+                self.start_current_a,
+                "must be in (0, control.current_limit_a] A",
             ));
         }
         check_range(

@@ -120,9 +120,8 @@ impl PhaseShifter {
         self.pre_run = None;
     }
 
-    /// Feeds the detection level (after the guard's filter) seen at clock edge `now`;
-    /// `window_open` is false while a linear-region guard is still waiting for its window.
-    pub fn observe(&mut self, now: Ticks, level: bool, window_open: bool) -> ShiftEvent {
+    /// Feeds the detection level (after the guard's filter) seen at clock edge `now`.
+    pub fn observe(&mut self, now: Ticks, level: bool) -> ShiftEvent {
         if !self.in_pre {
             return ShiftEvent::None;
         }
@@ -140,7 +139,7 @@ impl PhaseShifter {
         }
         let overdue = self.demag_timeout().is_some_and(|e| now >= e);
         let plausible = now >= self.earliest_crossing();
-        if (self.armed || overdue) && window_open && plausible {
+        if (self.armed || overdue) && plausible {
             self.last_forced = !self.armed;
             self.forced += u64::from(self.last_forced);
             self.cross(now);
@@ -273,7 +272,7 @@ mod tests {
             let post_level = s.sector().rising;
             let past = t >= (crossed + 1) * t60 * CLK;
             let level = if past { post_level } else { !post_level };
-            if s.observe(now, level, true) == ShiftEvent::Crossing {
+            if s.observe(now, level) == ShiftEvent::Crossing {
                 crossed += 1;
                 log.push((t, ShiftEvent::Crossing, s.state()));
             }
@@ -370,42 +369,27 @@ mod tests {
         s.hand_over(0, Ticks(0), 1000);
         // First crossing (armed by the hand-over), then the 30° post part.
         let post = s.sector().rising; // sector 0: w falling → post level 0
-        assert_eq!(s.observe(Ticks(32_000), post, true), ShiftEvent::Crossing);
+        assert_eq!(s.observe(Ticks(32_000), post), ShiftEvent::Crossing);
         let t_com = s.post_end().unwrap();
         assert_eq!(s.poll(t_com), ShiftEvent::Commutation);
         let post = s.sector().rising;
         // At the commutation edge the comparator still shows the pre level (left over);
         // 1 µs later the freewheel clamp shows the post level: not armed, no crossing.
-        assert_eq!(s.observe(t_com, !post, true), ShiftEvent::None);
-        assert_eq!(s.observe(Ticks(t_com.0 + 64), post, true), ShiftEvent::None);
+        assert_eq!(s.observe(t_com, !post), ShiftEvent::None);
+        assert_eq!(s.observe(Ticks(t_com.0 + 64), post), ShiftEvent::None);
         assert!(!s.armed());
         // Freewheel ends (pre level), then the real crossing.
-        assert_eq!(
-            s.observe(Ticks(t_com.0 + 3200), !post, true),
-            ShiftEvent::None
-        );
-        assert_eq!(
-            s.observe(Ticks(t_com.0 + 9600), post, true),
-            ShiftEvent::Crossing
-        );
+        assert_eq!(s.observe(Ticks(t_com.0 + 3200), !post), ShiftEvent::None);
+        assert_eq!(s.observe(Ticks(t_com.0 + 9600), post), ShiftEvent::Crossing);
         // No freewheel at all: the pre level held past the blanking time also arms. (t_60
         // is now measured, 800 clocks, so the next crossing is plausible from ¾ of it.)
         let t_com = s.post_end().unwrap();
         s.poll(t_com);
         let post = s.sector().rising;
-        s.observe(t_com, !post, true);
+        s.observe(t_com, !post);
         let at = Ticks(s.earliest_crossing().0 + 64);
         assert!(at.0 - t_com.0 >= 320, "past the blanking time");
-        assert_eq!(s.observe(at, post, true), ShiftEvent::Crossing);
-    }
-
-    #[test]
-    fn a_closed_window_holds_a_crossing_until_it_opens() {
-        let mut s = PhaseShifter::new(Table::SixStep, Ticks(320));
-        s.hand_over(0, Ticks(0), 1000);
-        let post = s.sector().rising;
-        assert_eq!(s.observe(Ticks(25_600), post, false), ShiftEvent::None);
-        assert_eq!(s.observe(Ticks(28_800), post, true), ShiftEvent::Crossing);
+        assert_eq!(s.observe(at, post), ShiftEvent::Crossing);
     }
 
     /// Crossing after the hand-over, then a measured t_60 of 1000 clocks.
@@ -420,10 +404,10 @@ mod tests {
         for k in 1..=2u64 {
             let post = s.sector().rising;
             let t = Ticks(k * 32_000);
-            assert_eq!(s.observe(t, post, true), ShiftEvent::Crossing);
+            assert_eq!(s.observe(t, post), ShiftEvent::Crossing);
             let tc = s.post_end().unwrap();
             s.poll(tc);
-            s.observe(tc, !s.sector().rising, true);
+            s.observe(tc, !s.sector().rising);
         }
         assert_eq!(s.t60(), (1000, true));
         s
@@ -435,16 +419,10 @@ mod tests {
         let post = s.sector().rising;
         // Armed (pre level since the commutation, past blanking), post level at 0.7·t60:
         // interference; at 0.75·t60 it is accepted.
+        assert_eq!(s.observe(Ticks(64_000 + 22_400), post), ShiftEvent::None);
+        assert_eq!(s.observe(Ticks(64_000 + 23_968), !post), ShiftEvent::None);
         assert_eq!(
-            s.observe(Ticks(64_000 + 22_400), post, true),
-            ShiftEvent::None
-        );
-        assert_eq!(
-            s.observe(Ticks(64_000 + 23_968), !post, true),
-            ShiftEvent::None
-        );
-        assert_eq!(
-            s.observe(Ticks(64_000 + 24_000), post, true),
+            s.observe(Ticks(64_000 + 24_000), post),
             ShiftEvent::Crossing
         );
     }
@@ -460,24 +438,24 @@ mod tests {
         s.hand_over(0, Ticks(0), 1000);
         for k in 1..=2u64 {
             let post = s.sector().rising;
-            s.observe(Ticks(k * 32_000), post, true);
+            s.observe(Ticks(k * 32_000), post);
             let tc = s.post_end().unwrap();
             s.poll(tc);
             if k == 1 {
-                s.observe(tc, !s.sector().rising, true);
+                s.observe(tc, !s.sector().rising);
             }
         }
         // Sector entered at 80 000 with the post level only (clamped, never armed).
         let post = s.sector().rising;
-        assert_eq!(s.observe(Ticks(80_032), post, true), ShiftEvent::None);
+        assert_eq!(s.observe(Ticks(80_032), post), ShiftEvent::None);
         assert_eq!(s.demag_timeout(), Some(Ticks(96_000)));
-        assert_eq!(s.observe(Ticks(96_000), post, true), ShiftEvent::Crossing);
+        assert_eq!(s.observe(Ticks(96_000), post), ShiftEvent::Crossing);
         assert_eq!(s.forced_crossings(), 1);
         // The next sector shows the post level only as well: no second forced crossing.
         let tc = s.post_end().unwrap();
         s.poll(tc);
         assert_eq!(s.demag_timeout(), None);
         let post = s.sector().rising;
-        assert_eq!(s.observe(Ticks(200_000), post, true), ShiftEvent::None);
+        assert_eq!(s.observe(Ticks(200_000), post), ShiftEvent::None);
     }
 }
