@@ -179,20 +179,20 @@ impl ControlParams {
                 "must be <= 1000",
             ));
         }
-        if !(1..=100).contains(&self.speed_periods) {
-            return Err(ParamError::new(
-                "control.speed_periods",
-                self.speed_periods,
-                "must be in 1..=100 FG periods",
-            ));
-        }
-        if !(8..=32).contains(&self.speed_counter_bits) {
-            return Err(ParamError::new(
-                "control.speed_counter_bits",
-                self.speed_counter_bits,
-                "must be in 8..=32 bits",
-            ));
-        }
+        check_range(
+            "control.speed_periods",
+            f64::from(self.speed_periods),
+            1.0,
+            100.0,
+            "must be in 1..=100 FG periods",
+        )?;
+        check_range(
+            "control.speed_counter_bits",
+            f64::from(self.speed_counter_bits),
+            8.0,
+            32.0,
+            "must be in 8..=32 bits",
+        )?;
         Ok(())
     }
 }
@@ -377,13 +377,13 @@ impl StrategyParams {
                 ));
             }
         }
-        if !(1..=60).contains(&self.linear_region_deg) {
-            return Err(ParamError::new(
-                "strategy.linear_region_deg",
-                self.linear_region_deg,
-                "must be in 1..=60 electrical degrees",
-            ));
-        }
+        check_range(
+            "strategy.linear_region_deg",
+            f64::from(self.linear_region_deg),
+            1.0,
+            60.0,
+            "must be in 1..=60 electrical degrees",
+        )?;
         if self.lm_speed_max_rpm as f64 > SPEED_CMD_MAX_RPM {
             return Err(ParamError::new(
                 "strategy.lm_speed_max_rpm",
@@ -398,13 +398,13 @@ impl StrategyParams {
                 "must be greater than strategy.lm_speed_min_rpm (ωM > ωm)",
             ));
         }
-        if !(1..=64).contains(&self.filter_samples) {
-            return Err(ParamError::new(
-                "strategy.filter_samples",
-                self.filter_samples,
-                "must be in 1..=64 samples",
-            ));
-        }
+        check_range(
+            "strategy.filter_samples",
+            f64::from(self.filter_samples),
+            1.0,
+            64.0,
+            "must be in 1..=64 samples",
+        )?;
         Ok(())
     }
 

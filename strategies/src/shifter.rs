@@ -360,13 +360,7 @@ mod tests {
 
     #[test]
     fn freewheel_after_a_commutation_is_not_taken_for_a_crossing() {
-        let mut s = PhaseShifter::new(
-            Table::TwelveStep {
-                conduction_deg: 150.0,
-            },
-            Ticks(320),
-        );
-        s.hand_over(0, Ticks(0), 1000);
+        let mut s = handed_over_150();
         // First crossing (armed by the hand-over), then the 30° post part.
         let post = s.sector().rising; // sector 0: w falling → post level 0
         assert_eq!(s.observe(Ticks(32_000), post), ShiftEvent::Crossing);
@@ -392,8 +386,8 @@ mod tests {
         assert_eq!(s.observe(at, post), ShiftEvent::Crossing);
     }
 
-    /// Crossing after the hand-over, then a measured t_60 of 1000 clocks.
-    fn measured() -> PhaseShifter {
+    /// A 150° shifter handed over in sector 0 at t = 0 with t_60 = 1000 clocks.
+    fn handed_over_150() -> PhaseShifter {
         let mut s = PhaseShifter::new(
             Table::TwelveStep {
                 conduction_deg: 150.0,
@@ -401,6 +395,12 @@ mod tests {
             Ticks(320),
         );
         s.hand_over(0, Ticks(0), 1000);
+        s
+    }
+
+    /// Crossing after the hand-over, then a measured t_60 of 1000 clocks.
+    fn measured() -> PhaseShifter {
+        let mut s = handed_over_150();
         for k in 1..=2u64 {
             let post = s.sector().rising;
             let t = Ticks(k * 32_000);
@@ -429,13 +429,7 @@ mod tests {
 
     #[test]
     fn a_crossing_hidden_by_the_freewheel_is_taken_at_the_timeout_but_not_twice() {
-        let mut s = PhaseShifter::new(
-            Table::TwelveStep {
-                conduction_deg: 150.0,
-            },
-            Ticks(320),
-        );
-        s.hand_over(0, Ticks(0), 1000);
+        let mut s = handed_over_150();
         for k in 1..=2u64 {
             let post = s.sector().rising;
             s.observe(Ticks(k * 32_000), post);
