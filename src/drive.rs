@@ -2,13 +2,13 @@
 
 use crate::config::DriveConfig;
 use drive_core::error::ParamError;
-use drive_core::pwm::HighSideChop;
+use drive_core::pwm::PwmSchemeKind;
 use drive_core::{Carrier, Engine, EngineError, Ticks};
 use plants::BldcPlant;
 use strategies::Chip;
 
-/// The engine type of a drive with the chip's high-side chopping.
-pub type DriveEngine = Engine<BldcPlant, Chip, HighSideChop>;
+/// The engine type of a drive: the PWM scheme is chosen by `[power_stage] pwm_scheme`.
+pub type DriveEngine = Engine<BldcPlant, Chip, PwmSchemeKind>;
 
 /// Builds the plant and the chip from `config` and puts them on an engine at t = 0, with
 /// the start input held from t = 0.
@@ -24,7 +24,13 @@ pub fn build(config: &DriveConfig) -> Result<DriveEngine, ParamError> {
         carrier.top,
     )?;
     let dead_time = config.power_stage.dead_time();
-    Ok(Engine::new(plant, chip, HighSideChop, carrier, dead_time))
+    Ok(Engine::new(
+        plant,
+        chip,
+        config.power_stage.pwm_scheme,
+        carrier,
+        dead_time,
+    ))
 }
 
 /// Runs `engine` until `t_end_s`, calling `each` after every engine stop.

@@ -3,6 +3,7 @@
 
 use bldc_drive::DriveConfig;
 use bldc_drive::drive::{build, run_to};
+use bldc_drive::drive_core::pwm::PwmSchemeKind;
 use bldc_drive::strategies::{Mode, StrategyName};
 
 /// What a closed-loop run produced.
@@ -19,6 +20,16 @@ struct Run {
 fn run(name: StrategyName, rpm: f64, secs: f64, load: Option<(f64, f64)>, settle_s: f64) -> Run {
     let mut cfg = DriveConfig::default();
     cfg.strategy.name = name;
+    run_config(cfg, rpm, secs, load, settle_s)
+}
+
+fn run_config(
+    mut cfg: DriveConfig,
+    rpm: f64,
+    secs: f64,
+    load: Option<(f64, f64)>,
+    settle_s: f64,
+) -> Run {
     cfg.control.speed_ref_rpm = rpm;
     let mut eng = build(&cfg).expect("default config is valid");
     let table = eng.controller.table();
@@ -90,6 +101,19 @@ fn df_guarded_strategies_start_lock_and_hold_the_commanded_speed() {
             (m - rpm).abs() < 0.02 * rpm,
             "{name} {rpm} rpm: mean {m:.0}"
         );
+    }
+}
+
+#[test]
+fn every_pwm_scheme_drives_the_same_strategy() {
+    for scheme in PwmSchemeKind::ALL {
+        let mut cfg = DriveConfig::default();
+        cfg.power_stage.pwm_scheme = scheme;
+        cfg.power_stage.dead_time_s = 0.5e-6;
+        let r = run_config(cfg, 3000.0, 3.0, None, 9.0);
+        let m = mean_speed(&r, 2.5, 3.0);
+        assert_eq!(r.restarts, 0, "{}", scheme.name());
+        assert!((m - 3000.0).abs() < 60.0, "{}: mean {m:.0}", scheme.name());
     }
 }
 

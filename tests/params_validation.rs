@@ -1,5 +1,6 @@
 //! Bad parameters are refused with an error naming the field and the rule.
 
+use bldc_drive::drive_core::pwm::PwmSchemeKind;
 use bldc_drive::plants::{BackEmfShape, BldcPlant, PlantParams};
 
 fn refused(edit: impl FnOnce(&mut PlantParams), field: &str, rule_word: &str) {
@@ -87,6 +88,11 @@ fn power_stage_and_sensing_rules() {
         |p| p.power_stage.dead_time_s = 1.0,
         "power_stage.dead_time_s",
         "10e-6",
+    );
+    refused(
+        |p| p.power_stage.pwm_scheme = PwmSchemeKind::Complementary,
+        "power_stage.dead_time_s",
+        "complementary",
     );
     refused(
         |p| p.sensing.current.adc_bits = 0,

@@ -123,6 +123,47 @@ impl PwmScheme for Complementary {
     }
 }
 
+/// The built-in schemes by name, for configs and front ends (`[power_stage] pwm_scheme`).
+#[derive(Copy, Clone, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum PwmSchemeKind {
+    /// [`HighSideChop`], the chip's.
+    #[default]
+    HighSideChop,
+    /// [`LowSideChop`].
+    LowSideChop,
+    /// [`Complementary`]; needs a dead time to be safe.
+    Complementary,
+}
+
+impl PwmSchemeKind {
+    /// Every built-in scheme, in a fixed order.
+    pub const ALL: [PwmSchemeKind; 3] = [
+        PwmSchemeKind::HighSideChop,
+        PwmSchemeKind::LowSideChop,
+        PwmSchemeKind::Complementary,
+    ];
+
+    /// The config name (`high-side-chop`, `low-side-chop`, `complementary`).
+    pub fn name(self) -> &'static str {
+        match self {
+            PwmSchemeKind::HighSideChop => "high-side-chop",
+            PwmSchemeKind::LowSideChop => "low-side-chop",
+            PwmSchemeKind::Complementary => "complementary",
+        }
+    }
+}
+
+impl PwmScheme for PwmSchemeKind {
+    fn gates(&self, pattern: &Pattern, on: bool) -> Gates {
+        match self {
+            PwmSchemeKind::HighSideChop => HighSideChop.gates(pattern, on),
+            PwmSchemeKind::LowSideChop => LowSideChop.gates(pattern, on),
+            PwmSchemeKind::Complementary => Complementary.gates(pattern, on),
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -180,6 +221,20 @@ mod tests {
             for on in [false, true] {
                 assert!(s.gates(&p, on).validate().is_ok());
             }
+        }
+    }
+
+    #[test]
+    fn scheme_kind_dispatches_to_its_scheme() {
+        let p = Abc {
+            u: LegState::High,
+            v: LegState::Low,
+            w: LegState::Float,
+        };
+        for on in [false, true] {
+            assert_eq!(PwmSchemeKind::HighSideChop.gates(&p, on), HighSideChop.gates(&p, on));
+            assert_eq!(PwmSchemeKind::LowSideChop.gates(&p, on), LowSideChop.gates(&p, on));
+            assert_eq!(PwmSchemeKind::Complementary.gates(&p, on), Complementary.gates(&p, on));
         }
     }
 }

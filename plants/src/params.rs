@@ -4,6 +4,7 @@
 //! source is silent or unreliable; each such choice is justified on its field.
 
 use drive_core::error::{ParamError, check_non_negative, check_positive, check_range};
+use drive_core::pwm::PwmSchemeKind;
 use drive_core::{Abc, Ticks};
 use serde::{Deserialize, Serialize};
 
@@ -168,6 +169,11 @@ pub struct PowerStageParams {
     /// Dead time inserted before every switch turn-on [s]. Default 0 (the chip chops one
     /// side only). Rule: 0..=10 µs; rounded to whole 20 ns ticks.
     pub dead_time_s: f64,
+    /// Which switches chop (`high-side-chop`, `low-side-chop`, `complementary`). Default
+    /// `high-side-chop` (the chip's). Rule: `complementary` needs `dead_time_s > 0`, since
+    /// it turns one switch of a leg on as the other turns off. Used by the engine, not by
+    /// the plant equations.
+    pub pwm_scheme: PwmSchemeKind,
 }
 
 impl Default for PowerStageParams {
@@ -179,6 +185,7 @@ impl Default for PowerStageParams {
             diode_resistance_ohm: 0.05,
             shunt_ohm: 0.25,
             dead_time_s: 0.0,
+            pwm_scheme: PwmSchemeKind::HighSideChop,
         }
     }
 }
@@ -210,6 +217,13 @@ impl PowerStageParams {
             10e-6,
             "must be 0..=10e-6 s",
         )?;
+        if self.pwm_scheme == PwmSchemeKind::Complementary && self.dead_time().0 == 0 {
+            return Err(ParamError::new(
+                "power_stage.dead_time_s",
+                self.dead_time_s,
+                "must be >= 20e-9 s (one tick) with pwm_scheme = complementary",
+            ));
+        }
         Ok(())
     }
 
