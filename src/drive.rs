@@ -5,10 +5,11 @@ use drive_core::error::ParamError;
 use drive_core::pwm::PwmSchemeKind;
 use drive_core::{Carrier, Engine, EngineError, Ticks};
 use plants::BldcPlant;
-use strategies::Chip;
+use strategies::{Chip, Strategy};
 
 /// The engine type of a drive: the PWM scheme is chosen by `[power_stage] pwm_scheme`.
-pub type DriveEngine = Engine<BldcPlant, Chip, PwmSchemeKind>;
+/// The strategy is a trait object so built-in and plugin strategies are interchangeable.
+pub type DriveEngine = Engine<BldcPlant, Box<dyn Strategy>, PwmSchemeKind>;
 
 /// Builds the plant and the chip from `config` and puts them on an engine at t = 0, with
 /// the start input held from t = 0.
@@ -16,13 +17,13 @@ pub fn build(config: &DriveConfig) -> Result<DriveEngine, ParamError> {
     config.validate()?;
     let plant = BldcPlant::new(config.plant_params())?;
     let carrier = Carrier::default();
-    let chip = Chip::new(
+    let chip: Box<dyn Strategy> = Box::new(Chip::new(
         config.control.clone(),
         config.strategy.clone(),
         config.motor.poles / 2,
         plant.current_sense().amps_per_code(),
         carrier.top,
-    )?;
+    )?);
     let dead_time = config.power_stage.dead_time();
     Ok(Engine::new(
         plant,
@@ -31,6 +32,12 @@ pub fn build(config: &DriveConfig) -> Result<DriveEngine, ParamError> {
         carrier,
         dead_time,
     ))
+}
+
+/// An independent copy of a drive in the same state (for FMU state saving, forks of a
+/// run); fails if the strategy cannot copy itself.
+pub fn try_clone(engine: &DriveEngine) -> Result<DriveEngine, String> {
+    engine.try_clone_with(|s| s.try_clone())
 }
 
 /// Runs `engine` until `t_end_s`, calling `each` after every engine stop.

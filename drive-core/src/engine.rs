@@ -82,6 +82,29 @@ impl<P: Plant, C: Controller, S: PwmScheme> Engine<P, C, S> {
         }
     }
 
+    /// An independent copy in the same state, with the controller copied by `copy` (a
+    /// controller behind a trait object or a C boundary may not be able to copy itself).
+    pub fn try_clone_with<E>(&self, copy: impl FnOnce(&C) -> Result<C, E>) -> Result<Self, E>
+    where
+        P: Clone,
+        S: Clone,
+    {
+        Ok(Engine {
+            plant: self.plant.clone(),
+            controller: copy(&self.controller)?,
+            scheme: self.scheme.clone(),
+            carrier: self.carrier,
+            driver: self.driver.clone(),
+            now: self.now,
+            cmd: self.cmd,
+            pwm_on: self.pwm_on,
+            wake: self.wake,
+            sample_period: self.sample_period,
+            started: self.started,
+            last_tick: self.last_tick,
+        })
+    }
+
     /// Adds a stop at every multiple of `period` (for traces); `Ticks::NEVER` disables it.
     pub fn set_sample_period(&mut self, period: Ticks) {
         self.sample_period = if period.0 == 0 { Ticks::NEVER } else { period };

@@ -232,9 +232,18 @@ mod tests {
             w: LegState::Float,
         };
         for on in [false, true] {
-            assert_eq!(PwmSchemeKind::HighSideChop.gates(&p, on), HighSideChop.gates(&p, on));
-            assert_eq!(PwmSchemeKind::LowSideChop.gates(&p, on), LowSideChop.gates(&p, on));
-            assert_eq!(PwmSchemeKind::Complementary.gates(&p, on), Complementary.gates(&p, on));
+            assert_eq!(
+                PwmSchemeKind::HighSideChop.gates(&p, on),
+                HighSideChop.gates(&p, on)
+            );
+            assert_eq!(
+                PwmSchemeKind::LowSideChop.gates(&p, on),
+                LowSideChop.gates(&p, on)
+            );
+            assert_eq!(
+                PwmSchemeKind::Complementary.gates(&p, on),
+                Complementary.gates(&p, on)
+            );
         }
     }
 }

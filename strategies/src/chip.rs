@@ -86,6 +86,7 @@ pub struct ChipStatus {
 /// The chip's controller.
 #[derive(Clone, Debug)]
 pub struct Chip {
+    name: StrategyName,
     control: ControlParams,
     table: Table,
     guard: Guard,
@@ -168,6 +169,7 @@ impl Chip {
             0.0,
         );
         Ok(Chip {
+            name: strategy.name,
             table,
             guard: Guard::from_params(&strategy),
             shifter: PhaseShifter::new(table, BLANKING),
@@ -414,6 +416,30 @@ impl Chip {
                 w
             }
         }
+    }
+}
+
+impl crate::Strategy for Chip {
+    fn name(&self) -> &str {
+        self.name.as_str()
+    }
+    fn status(&self) -> ChipStatus {
+        Chip::status(self)
+    }
+    fn table(&self) -> Table {
+        self.table
+    }
+    fn set_start(&mut self, now: Ticks, level: bool) {
+        Chip::set_start(self, now, level)
+    }
+    fn set_reset(&mut self, level: bool) {
+        Chip::set_reset(self, level)
+    }
+    fn set_speed_ref(&mut self, rpm: f64) {
+        Chip::set_speed_ref(self, rpm)
+    }
+    fn try_clone(&self) -> Result<Box<dyn crate::Strategy>, String> {
+        Ok(Box::new(self.clone()))
     }
 }
 

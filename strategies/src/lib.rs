@@ -13,8 +13,10 @@ pub mod params;
 pub mod pi;
 pub mod shifter;
 pub mod speed;
+pub mod strategy;
 pub mod table;
 
 pub use chip::{Chip, ChipStatus, Mode};
 pub use params::{ControlParams, GuardKind, StrategyName, StrategyParams, UnknownStrategy};
+pub use strategy::Strategy;
 pub use table::Table;

@@ -1,0 +1,28 @@
+//! What every commutation strategy offers a drive, built-in or loaded from a plugin.
+
+use crate::chip::ChipStatus;
+use crate::table::Table;
+use drive_core::{Controller, Ticks};
+
+/// A complete chip-like controller: commutation, guard, start-up and speed/current control
+/// behind one [`Controller`], plus the inputs and observables a front end needs.
+///
+/// The drive holds it as `Box<dyn Strategy>`, so the built-in [`crate::Chip`] and a
+/// plugin are interchangeable in the bench, the FMU and the tests.
+pub trait Strategy: Controller + Send {
+    /// The strategy's name (e.g. `twelve-step-df`).
+    fn name(&self) -> &str;
+    /// Everything observable (mode, state, Z_d before and after the guard, duty, …).
+    fn status(&self) -> ChipStatus;
+    /// The commutation table whose state boundaries the strategy aims for (used to
+    /// measure the commutation-angle error against the true rotor angle).
+    fn table(&self) -> Table;
+    /// Sets the start input at `now` (the chip debounces it).
+    fn set_start(&mut self, now: Ticks, level: bool);
+    /// Sets the reset input (while high: bridge off, restart count cleared).
+    fn set_reset(&mut self, level: bool);
+    /// Sets the speed command [rpm] (clamped to what the strategy can represent).
+    fn set_speed_ref(&mut self, rpm: f64);
+    /// An independent copy in the same state, or why there cannot be one.
+    fn try_clone(&self) -> Result<Box<dyn Strategy>, String>;
+}
