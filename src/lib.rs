@@ -7,6 +7,8 @@
 
 pub mod config;
 pub mod drive;
+pub mod metrics;
+pub mod scenario;
 
 pub use config::{ConfigError, DriveConfig};
 pub use drive_core;

@@ -438,6 +438,9 @@ impl crate::Strategy for Chip {
     fn set_speed_ref(&mut self, rpm: f64) {
         Chip::set_speed_ref(self, rpm)
     }
+    fn speed_ref_rpm(&self) -> f64 {
+        Chip::speed_ref_rpm(self)
+    }
     fn try_clone(&self) -> Result<Box<dyn crate::Strategy>, String> {
         Ok(Box::new(self.clone()))
     }

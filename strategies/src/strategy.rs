@@ -23,6 +23,8 @@ pub trait Strategy: Controller + Send {
     fn set_reset(&mut self, level: bool);
     /// Sets the speed command [rpm] (clamped to what the strategy can represent).
     fn set_speed_ref(&mut self, rpm: f64);
+    /// The speed command in force [rpm].
+    fn speed_ref_rpm(&self) -> f64;
     /// An independent copy in the same state, or why there cannot be one.
     fn try_clone(&self) -> Result<Box<dyn Strategy>, String>;
 }

@@ -1,0 +1,392 @@
+//! One benchmark scenario: a drive from standstill under a speed-command and load-torque
+//! schedule, with steady-state metrics, a decimated speed record and an optional trace.
+
+use crate::config::DriveConfig;
+use crate::drive::{DriveEngine, build};
+use crate::metrics::{AngleErrors, TimeStats};
+use drive_core::error::ParamError;
+use drive_core::{EngineError, StopReason, Ticks};
+use serde::Serialize;
+use std::time::Instant;
+use strategies::Mode;
+
+/// What to simulate.
+#[derive(Clone, Debug)]
+pub struct Scenario {
+    /// Plant, chip and strategy. `control.speed_ref_rpm` is the command from t = 0.
+    pub config: DriveConfig,
+    /// Simulated time [s].
+    pub duration_s: f64,
+    /// Later speed commands: (time [s], rpm), in time order.
+    pub speed_steps: Vec<(f64, f64)>,
+    /// Load torque on the shaft: (time [s], N·m), in time order; 0 before the first.
+    pub load_steps: Vec<(f64, f64)>,
+    /// Start of the steady-state window [s]; it ends at `duration_s`.
+    pub steady_from_s: f64,
+    /// Trace sampling: period [s] and the window [from, to] in which rows are produced.
+    pub trace: Option<TraceSpec>,
+    /// Period of the decimated true-speed record [s] (for step responses and plots).
+    pub speed_record_s: f64,
+}
+
+/// Which trace rows to produce.
+#[derive(Copy, Clone, Debug)]
+pub struct TraceSpec {
+    /// Sampling period [s], rounded to whole 20 ns ticks (at least one).
+    pub every_s: f64,
+    /// First instant traced [s].
+    pub from_s: f64,
+    /// Last instant traced [s].
+    pub to_s: f64,
+}
+
+impl Scenario {
+    /// A constant command of `rpm` for `duration_s`, steady state over the last third
+    /// (at least the last 0.5 s).
+    pub fn hold(config: DriveConfig, rpm: f64, duration_s: f64) -> Self {
+        let mut config = config;
+        config.control.speed_ref_rpm = rpm;
+        Scenario {
+            config,
+            duration_s,
+            speed_steps: Vec::new(),
+            load_steps: Vec::new(),
+            steady_from_s: (duration_s * 2.0 / 3.0).min(duration_s - 0.5).max(0.0),
+            trace: None,
+            speed_record_s: 1e-3,
+        }
+    }
+
+    /// Checks the schedule (the config is checked when the drive is built).
+    pub fn validate(&self) -> Result<(), ParamError> {
+        drive_core::error::check_range(
+            "duration_s",
+            self.duration_s,
+            1e-6,
+            3600.0,
+            "must be > 0 and <= 3600 s",
+        )?;
+        drive_core::error::check_range(
+            "steady_from_s",
+            self.steady_from_s,
+            0.0,
+            self.duration_s,
+            "must be within 0..=duration_s",
+        )?;
+        for &(t, rpm) in &self.speed_steps {
+            drive_core::error::check_range(
+                "speed step time [s]",
+                t,
+                0.0,
+                3600.0,
+                "must be 0..=3600 s",
+            )?;
+            drive_core::error::check_range(
+                "speed step [rpm]",
+                rpm,
+                0.0,
+                16383.0,
+                "must be 0..=16383 rpm",
+            )?;
+        }
+        for &(t, nm) in &self.load_steps {
+            drive_core::error::check_range(
+                "load step time [s]",
+                t,
+                0.0,
+                3600.0,
+                "must be 0..=3600 s",
+            )?;
+            drive_core::error::check_range(
+                "load_nm",
+                nm,
+                -1.0,
+                1.0,
+                "must be finite, |T| <= 1 N·m",
+            )?;
+        }
+        if let Some(tr) = &self.trace {
+            drive_core::error::check_range(
+                "trace_every_us",
+                tr.every_s * 1e6,
+                0.02,
+                1e6,
+                "must be 0.02 µs ..= 1 s",
+            )?;
+        }
+        drive_core::error::check_positive("speed_record_s", self.speed_record_s)
+    }
+}
+
+/// One trace row: true plant signals and what the chip sees and does.
+#[derive(Copy, Clone, Debug, Default, PartialEq, Serialize)]
+pub struct TraceRow {
+    /// Time [s].
+    pub t_s: f64,
+    /// True mechanical speed [rpm].
+    pub speed_rpm: f64,
+    /// The chip's FG speed measurement [rpm].
+    pub speed_est_rpm: f64,
+    /// True electrical angle [°], 0..360, with e_u = λr·ωe·sin θe.
+    pub theta_e_deg: f64,
+    /// Phase currents [A].
+    pub i_u: f64,
+    /// Phase current v [A].
+    pub i_v: f64,
+    /// Phase current w [A].
+    pub i_w: f64,
+    /// Terminal voltages to ground [V].
+    pub v_u: f64,
+    /// Terminal v [V].
+    pub v_v: f64,
+    /// Terminal w [V].
+    pub v_w: f64,
+    /// Neutral to ground [V].
+    pub v_n: f64,
+    /// Electromagnetic torque [N·m].
+    pub torque_nm: f64,
+    /// Commutation state (1..12 twelve-step, 1..6 six-step), 0 when off or starting.
+    pub state: u8,
+    /// Raw zero-crossing signal Z_d (0/1).
+    pub zd: u8,
+    /// Z_d after the guard (0/1).
+    pub zdf: u8,
+    /// 1 inside a linear region (PWM stopped).
+    pub linear: u8,
+    /// Duty cycle (voltage command / carrier top), 0..1.
+    pub duty: f64,
+    /// Restarts so far.
+    pub restarts: u32,
+}
+
+impl TraceRow {
+    /// The CSV header, in field order.
+    pub const HEADER: &'static str = "t_s,speed_rpm,speed_est_rpm,theta_e_deg,i_u,i_v,i_w,v_u,v_v,v_w,v_n,torque_nm,state,zd,zdf,linear,duty,restarts";
+
+    /// The row as CSV (no newline).
+    pub fn csv(&self) -> String {
+        format!(
+            "{:.9},{:.3},{:.1},{:.3},{:.6},{:.6},{:.6},{:.5},{:.5},{:.5},{:.5},{:.9},{},{},{},{},{:.5},{}",
+            self.t_s,
+            self.speed_rpm,
+            self.speed_est_rpm,
+            self.theta_e_deg,
+            self.i_u,
+            self.i_v,
+            self.i_w,
+            self.v_u,
+            self.v_v,
+            self.v_w,
+            self.v_n,
+            self.torque_nm,
+            self.state,
+            self.zd,
+            self.zdf,
+            self.linear,
+            self.duty,
+            self.restarts
+        )
+    }
+
+    /// The row of the drive as it is now.
+    pub fn of(eng: &DriveEngine) -> Self {
+        let o = eng.plant.observe();
+        let s = eng.controller.status();
+        TraceRow {
+            t_s: o.t_s,
+            speed_rpm: o.speed_rpm,
+            speed_est_rpm: f64::from(s.speed_est_rpm),
+            theta_e_deg: o.theta_e.to_degrees().rem_euclid(360.0),
+            i_u: o.i.u,
+            i_v: o.i.v,
+            i_w: o.i.w,
+            v_u: o.v_term.u,
+            v_v: o.v_term.v,
+            v_w: o.v_term.w,
+            v_n: o.v_n,
+            torque_nm: o.torque_nm,
+            state: s.state,
+            zd: s.zd.into(),
+            zdf: s.zdf.into(),
+            linear: s.linear.into(),
+            duty: f64::from(s.duty) / f64::from(eng.carrier().top),
+            restarts: s.restarts,
+        }
+    }
+}
+
+/// The summary of a run, with the metric definitions of the report.
+#[derive(Clone, Debug, Serialize)]
+pub struct Summary {
+    /// Strategy name.
+    pub strategy: String,
+    /// Speed command at the end [rpm].
+    pub speed_ref_rpm: f64,
+    /// Time-weighted mean of the true speed over the steady-state window [rpm].
+    pub speed_mean_rpm: f64,
+    /// Standard deviation of the true speed over the window [rpm].
+    pub speed_ripple_rpm: f64,
+    /// Mean electromagnetic torque over the window [N·m].
+    pub torque_mean_nm: f64,
+    /// Standard deviation of the torque over the window [N·m].
+    pub torque_ripple_nm: f64,
+    /// Phase-current RMS over the window, √(mean(i_u² + i_v² + i_w²)/3) [A].
+    pub current_rms_a: f64,
+    /// Restarts (step-miss errors) during the whole run.
+    pub restarts: u32,
+    /// Whether the chip ended in closed-loop running.
+    pub running: bool,
+    /// Commutations in the window.
+    pub commutations: u64,
+    /// Signed mean of the commutation-angle error in the window [°] (positive: late).
+    pub commutation_error_deg_mean: f64,
+    /// Largest |commutation-angle error| in the window [°].
+    pub commutation_error_deg_max: f64,
+    /// Zero crossings taken by the demagnetisation timeout instead of the comparator,
+    /// since the last hand-over.
+    pub forced_crossings: u64,
+    /// Steady-state window [s].
+    pub steady_from_s: f64,
+    /// Simulated time [s].
+    pub sim_s: f64,
+    /// Wall-clock time of the simulation [s].
+    pub wall_s: f64,
+    /// sim_s / wall_s.
+    pub realtime_factor: f64,
+}
+
+/// What a run produced.
+#[derive(Clone, Debug)]
+pub struct Outcome {
+    /// Steady-state metrics.
+    pub summary: Summary,
+    /// True speed every `speed_record_s`: (t [s], rpm).
+    pub speed: Vec<(f64, f64)>,
+}
+
+/// Why a scenario could not run.
+#[derive(Debug, thiserror::Error)]
+pub enum RunError {
+    /// A parameter or schedule value breaks its rule.
+    #[error("{0}")]
+    Param(#[from] ParamError),
+    /// The engine refused a command (e.g. a shoot-through).
+    #[error("{0}")]
+    Engine(#[from] EngineError),
+}
+
+/// Runs `sc`, calling `on_row` for every trace row.
+pub fn run(sc: &Scenario, mut on_row: impl FnMut(&TraceRow)) -> Result<Outcome, RunError> {
+    sc.validate()?;
+    let mut eng = build(&sc.config)?;
+    let wall = Instant::now();
+    let trace = sc.trace.map(|t| {
+        let every = Ticks(((t.every_s / Ticks(1).seconds()).round() as u64).max(1));
+        (every, tick_of(t.from_s), tick_of(t.to_s))
+    });
+    if let Some((every, _, _)) = trace {
+        eng.set_sample_period(every);
+    }
+    let table = eng.controller.table();
+    let steady_from = sc.steady_from_s;
+    let mut speed = TimeStats::default();
+    let mut torque = TimeStats::default();
+    let mut i_sq = TimeStats::default();
+    let mut angles = AngleErrors::default();
+    let mut record = Vec::with_capacity((sc.duration_s / sc.speed_record_s) as usize + 2);
+    let mut next_record = 0.0;
+    let mut last_state = 0u8;
+    let mut last_row: Option<Ticks> = None;
+
+    // Every schedule change is a segment end; the engine runs exactly to it.
+    let mut events: Vec<(f64, Event)> = sc
+        .speed_steps
+        .iter()
+        .map(|&(t, x)| (t, Event::Speed(x)))
+        .chain(sc.load_steps.iter().map(|&(t, x)| (t, Event::Load(x))))
+        .filter(|e| e.0 < sc.duration_s)
+        .collect();
+    events.sort_by(|a, b| a.0.total_cmp(&b.0));
+    events.push((sc.duration_s, Event::End));
+
+    for (t_event, event) in events {
+        let end = tick_of(t_event);
+        eng.run_until(end, |e, reason| {
+            if matches!(reason, StopReason::Diode | StopReason::Sensing) {
+                return; // between ticks: the next whole-tick stop follows at once
+            }
+            let o = e.plant.observe();
+            let t = o.t_s;
+            if t >= next_record {
+                record.push((t, o.speed_rpm));
+                next_record = t + sc.speed_record_s;
+            }
+            let s = e.controller.status();
+            if t >= steady_from {
+                speed.push(t, o.speed_rpm);
+                torque.push(t, o.torque_nm);
+                i_sq.push(t, (o.i.u * o.i.u + o.i.v * o.i.v + o.i.w * o.i.w) / 3.0);
+                if s.state != last_state && s.state != 0 && last_state != 0 {
+                    angles.push(o.theta_e.to_degrees(), table.state_start_deg(s.state));
+                }
+            }
+            last_state = s.state;
+            if let Some((every, from, to)) = trace {
+                let now = e.now();
+                if now >= from
+                    && now <= to
+                    && now.0 % every.0 == 0
+                    && last_row.is_none_or(|r| now > r)
+                {
+                    last_row = Some(now);
+                    on_row(&TraceRow::of(e));
+                }
+            }
+        })?;
+        match event {
+            Event::Speed(rpm) => eng.controller.set_speed_ref(rpm),
+            Event::Load(nm) => eng.plant.set_load_torque(nm),
+            Event::End => {}
+        }
+    }
+    let wall_s = wall.elapsed().as_secs_f64();
+    let s = eng.controller.status();
+    let sim_s = eng.now().seconds();
+    Ok(Outcome {
+        summary: Summary {
+            strategy: eng.controller.name().to_string(),
+            speed_ref_rpm: eng.controller.speed_ref_rpm(),
+            speed_mean_rpm: speed.mean(),
+            speed_ripple_rpm: speed.std_dev(),
+            torque_mean_nm: torque.mean(),
+            torque_ripple_nm: torque.std_dev(),
+            current_rms_a: i_sq.mean().sqrt(),
+            restarts: s.restarts,
+            running: s.mode == Mode::Running,
+            commutations: angles.count,
+            commutation_error_deg_mean: angles.mean_deg,
+            commutation_error_deg_max: angles.max_abs_deg,
+            forced_crossings: s.forced_crossings,
+            steady_from_s: steady_from,
+            sim_s,
+            wall_s,
+            realtime_factor: if wall_s > 0.0 {
+                sim_s / wall_s
+            } else {
+                f64::INFINITY
+            },
+        },
+        speed: record,
+    })
+}
+
+#[derive(Copy, Clone, Debug)]
+enum Event {
+    Speed(f64),
+    Load(f64),
+    End,
+}
+
+fn tick_of(t_s: f64) -> Ticks {
+    Ticks::from_seconds(t_s).unwrap_or(Ticks::NEVER)
+}
