@@ -5,6 +5,7 @@
 //! drive's TOML [`config`] and a [`drive`] builder.
 #![forbid(unsafe_code)]
 
+pub mod bench;
 pub mod config;
 pub mod drive;
 pub mod metrics;

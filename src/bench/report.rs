@@ -1,0 +1,477 @@
+//! The comparison as a terminal table and a report folder (JSON, CSV, Markdown, SVG).
+
+use super::svg::{Panel, Series, chart};
+use super::{Comparison, CrossingTrace};
+use crate::config::DriveConfig;
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+/// One sentence per metric, shown in the report (and the definitions the code uses).
+pub const METRIC_DEFINITIONS: &[(&str, &str)] = &[
+    (
+        "speed_mean_rpm",
+        "time-weighted mean of the true rotor speed over the steady-state window (the last third of the run), sampled at every engine instant and held in between",
+    ),
+    (
+        "speed_ripple_rpm",
+        "standard deviation of the true rotor speed over the same window",
+    ),
+    (
+        "torque_mean_nm / torque_ripple_nm",
+        "time-weighted mean and standard deviation of the electromagnetic torque over the window; the ripple includes commutation and PWM ripple",
+    ),
+    (
+        "current_rms_a",
+        "RMS phase current over the window, √(mean(i_u² + i_v² + i_w²)/3)",
+    ),
+    (
+        "commutation error",
+        "true electrical angle at each commutation minus the table boundary of the state entered, in electrical degrees (positive: late); mean is signed, max is the largest magnitude",
+    ),
+    (
+        "restarts",
+        "step-miss errors after which the chip re-aligned and started again",
+    ),
+    (
+        "forced crossings",
+        "zero crossings the phase shifter took from its demagnetisation timeout because the comparator did not show one in time",
+    ),
+    (
+        "min / max rpm",
+        "lowest and highest command that is controllable: started from standstill, running closed loop after 3 s with no restart and a mean speed within 2 % of the command; found by bisection to 3 %",
+    ),
+    (
+        "rise / overshoot / settling",
+        "for the speed step: 10–90 % rise time of the true speed, peak beyond the new command in % of the step, and the time after the step from which the speed stays within ±2 % of the command",
+    ),
+    (
+        "load dip / recovery",
+        "for the load step: largest drop of the true speed below the command, and the time after the step from which it stays within ±2 % of the command",
+    ),
+];
+
+fn opt(v: Option<f64>, scale: f64, decimals: usize) -> String {
+    v.map_or("–".to_string(), |x| format!("{:.decimals$}", x * scale))
+}
+
+/// The compact table printed to the terminal.
+pub fn terminal_table(c: &Comparison) -> String {
+    let mut s = String::new();
+    let trace_rpm = c.plan.trace_rpm;
+    let _ = writeln!(
+        s,
+        "{:<22} {:>7} {:>7} {:>5} {:>13} {:>9} {:>9} {:>7} {:>13} {:>13}",
+        "strategy",
+        "min",
+        "max",
+        "grid",
+        format!("err@{trace_rpm:.0} °"),
+        "ripple",
+        "T ripple",
+        "I rms",
+        "step os % AW",
+        "load dip rpm"
+    );
+    let _ = writeln!(
+        s,
+        "{:<22} {:>7} {:>7} {:>5} {:>13} {:>9} {:>9} {:>7} {:>13} {:>13}",
+        "", "rpm", "rpm", "ok", "mean / max", "rpm", "mN·m", "A", "on / off", "/ recovery s"
+    );
+    for v in &c.variants {
+        let range = c.ranges.iter().find(|r| r.strategy == v.label);
+        let grid: Vec<_> = c.grid.iter().filter(|g| g.variant == v.label).collect();
+        let ok = grid.iter().filter(|g| holds(&g.summary)).count();
+        let at = grid.iter().find(|g| g.summary.speed_ref_rpm == trace_rpm);
+        let step = |aw: bool| {
+            c.steps
+                .iter()
+                .find(|x| x.variant == v.label && x.anti_windup == aw)
+                .map_or("–".into(), |x| format!("{:.1}", x.response.overshoot_pct))
+        };
+        let load = c.loads.iter().find(|l| l.variant == v.label);
+        let _ = writeln!(
+            s,
+            "{:<22} {:>7} {:>7} {:>5} {:>13} {:>9} {:>9} {:>7} {:>13} {:>13}",
+            v.label,
+            opt(range.and_then(|r| r.min_rpm), 1.0, 0),
+            opt(range.and_then(|r| r.max_rpm), 1.0, 0),
+            format!("{ok}/{}", grid.len()),
+            at.map_or("–".into(), |g| format!(
+                "{:+.1} / {:.1}",
+                g.summary.commutation_error_deg_mean, g.summary.commutation_error_deg_max
+            )),
+            at.map_or("–".into(), |g| format!(
+                "{:.1}",
+                g.summary.speed_ripple_rpm
+            )),
+            at.map_or("–".into(), |g| format!(
+                "{:.3}",
+                g.summary.torque_ripple_nm * 1e3
+            )),
+            at.map_or("–".into(), |g| format!("{:.3}", g.summary.current_rms_a)),
+            format!("{} / {}", step(true), step(false)),
+            load.map_or("–".into(), |l| format!(
+                "{:.0} / {}",
+                l.response.dip,
+                opt(l.response.recovery_s, 1.0, 2)
+            )),
+        );
+    }
+    let _ = writeln!(
+        s,
+        "grid ok: speeds of {:?} rpm held within 2 % without restart; err/ripple/I at {trace_rpm:.0} rpm; step {:.0}→{:.0} rpm; load {:.1} mN·m at {:.0} rpm",
+        c.plan.grid_rpm,
+        c.plan.step.0,
+        c.plan.step.1,
+        c.plan.load.1 * 1e3,
+        c.plan.load.0
+    );
+    let _ = writeln!(s, "wall time {:.1} s on {} threads", c.wall_s, c.threads);
+    s
+}
+
+/// Whether a steady-state run held its command (the range criterion).
+pub fn holds(s: &crate::scenario::Summary) -> bool {
+    s.running
+        && s.restarts == 0
+        && (s.speed_mean_rpm - s.speed_ref_rpm).abs() <= 0.02 * s.speed_ref_rpm
+}
+
+/// Writes `results.json`, `results.csv`, `report.md` and the SVG plots into `dir`,
+/// returning the files written.
+pub fn write_folder(
+    c: &Comparison,
+    config: &DriveConfig,
+    dir: &Path,
+) -> std::io::Result<Vec<PathBuf>> {
+    std::fs::create_dir_all(dir)?;
+    let mut files = Vec::new();
+    let mut put = |name: &str, text: String| -> std::io::Result<()> {
+        let p = dir.join(name);
+        std::fs::write(&p, text)?;
+        files.push(p);
+        Ok(())
+    };
+    let json = serde_json::to_string_pretty(c).map_err(std::io::Error::other)?;
+    put("results.json", json)?;
+    put("results.csv", grid_csv(c))?;
+    put("speed_step.svg", speed_step_chart(c))?;
+    put("load_step.svg", load_step_chart(c))?;
+    put("ripple_vs_speed.svg", ripple_chart(c))?;
+    put("phase_current.svg", current_chart(c))?;
+    let mut crossing_files = Vec::new();
+    for t in &c.crossings {
+        let name = format!("crossing_{}.svg", t.variant.replace('@', "_"));
+        put(&name, crossing_chart(t))?;
+        crossing_files.push(name);
+    }
+    put("report.md", markdown(c, config, &crossing_files))?;
+    Ok(files)
+}
+
+fn grid_csv(c: &Comparison) -> String {
+    let mut s = String::from(
+        "strategy,speed_ref_rpm,speed_mean_rpm,speed_ripple_rpm,torque_mean_nm,torque_ripple_nm,current_rms_a,restarts,running,commutations,commutation_error_deg_mean,commutation_error_deg_max,forced_crossings,sim_s,wall_s,realtime_factor\n",
+    );
+    for g in &c.grid {
+        let m = &g.summary;
+        let _ = writeln!(
+            s,
+            "{},{},{:.3},{:.3},{:.6e},{:.6e},{:.5},{},{},{},{:.3},{:.3},{},{:.3},{:.3},{:.2}",
+            g.variant,
+            m.speed_ref_rpm,
+            m.speed_mean_rpm,
+            m.speed_ripple_rpm,
+            m.torque_mean_nm,
+            m.torque_ripple_nm,
+            m.current_rms_a,
+            m.restarts,
+            m.running,
+            m.commutations,
+            m.commutation_error_deg_mean,
+            m.commutation_error_deg_max,
+            m.forced_crossings,
+            m.sim_s,
+            m.wall_s,
+            m.realtime_factor
+        );
+    }
+    s
+}
+
+fn speed_step_chart(c: &Comparison) -> String {
+    let panel = |aw: bool| Panel {
+        y_label: format!("speed [rpm], anti-windup {}", if aw { "on" } else { "off" }),
+        series: c
+            .steps
+            .iter()
+            .filter(|s| s.anti_windup == aw)
+            .map(|s| Series {
+                name: s.variant.clone(),
+                points: s.speed.clone(),
+                steps: false,
+            })
+            .collect(),
+    };
+    chart(
+        &format!(
+            "Speed step {:.0} → {:.0} rpm at t = {} s",
+            c.plan.step.0, c.plan.step.1, c.plan.step.2
+        ),
+        "time [s]",
+        &[panel(true), panel(false)],
+    )
+}
+
+fn load_step_chart(c: &Comparison) -> String {
+    let series = c
+        .loads
+        .iter()
+        .map(|l| Series {
+            name: l.variant.clone(),
+            points: l
+                .speed
+                .iter()
+                .copied()
+                .filter(|p| p.0 > c.plan.load.2 - 0.5)
+                .collect(),
+            steps: false,
+        })
+        .collect();
+    chart(
+        &format!(
+            "Load step {:.2} mN·m at t = {} s, {:.0} rpm",
+            c.plan.load.1 * 1e3,
+            c.plan.load.2,
+            c.plan.load.0
+        ),
+        "time [s]",
+        &[Panel {
+            y_label: "speed [rpm]".into(),
+            series,
+        }],
+    )
+}
+
+fn ripple_chart(c: &Comparison) -> String {
+    let per = |f: &dyn Fn(&crate::scenario::Summary) -> f64| -> Vec<Series> {
+        c.variants
+            .iter()
+            .map(|v| Series {
+                name: v.label.clone(),
+                points: c
+                    .grid
+                    .iter()
+                    .filter(|g| g.variant == v.label && g.summary.running)
+                    .map(|g| (g.summary.speed_ref_rpm, f(&g.summary)))
+                    .collect(),
+                steps: false,
+            })
+            .collect()
+    };
+    chart(
+        "Steady state vs speed (points where the drive was running)",
+        "speed command [rpm]",
+        &[
+            Panel {
+                y_label: "torque ripple (std) [mN·m]".into(),
+                series: per(&|s| s.torque_ripple_nm * 1e3),
+            },
+            Panel {
+                y_label: "max |commutation error| [°]".into(),
+                series: per(&|s| s.commutation_error_deg_max),
+            },
+        ],
+    )
+}
+
+fn current_chart(c: &Comparison) -> String {
+    let panels: Vec<Panel> = c
+        .crossings
+        .iter()
+        .map(|t| {
+            let t0 = t.rows.first().map_or(0.0, |r| r.t_s);
+            let line = |name: &str, f: fn(&crate::scenario::TraceRow) -> f64| Series {
+                name: name.into(),
+                points: t.rows.iter().map(|r| ((r.t_s - t0) * 1e3, f(r))).collect(),
+                steps: false,
+            };
+            Panel {
+                y_label: format!("{} [A]", t.variant),
+                series: vec![
+                    line("i_u", |r| r.i_u),
+                    line("i_v", |r| r.i_v),
+                    line("i_w", |r| r.i_w),
+                ],
+            }
+        })
+        .collect();
+    chart(
+        &format!(
+            "Phase currents over one electrical turn at {:.0} rpm",
+            c.plan.trace_rpm
+        ),
+        "time from window start [ms]",
+        &panels,
+    )
+}
+
+/// Phase u against the neutral, with Z_d before and after the guard and the linear
+/// flag, over ±60° electrical around the first rising crossing of e_u (θe through 0°).
+fn crossing_chart(t: &CrossingTrace) -> String {
+    let rows = &t.rows;
+    let k = rows
+        .windows(2)
+        .position(|w| w[0].theta_e_deg > 300.0 && w[1].theta_e_deg < 60.0)
+        .unwrap_or(rows.len() / 2);
+    let t_cross = rows.get(k).map_or(0.0, |r| r.t_s);
+    // 60° electrical in time, from the angle advance across the trace.
+    let span = rows
+        .windows(2)
+        .map(|w| (w[1].theta_e_deg - w[0].theta_e_deg).rem_euclid(360.0))
+        .sum::<f64>();
+    let dur = rows.last().map_or(0.0, |r| r.t_s) - rows.first().map_or(0.0, |r| r.t_s);
+    let w60 = if span > 0.0 {
+        60.0 * dur / span
+    } else {
+        dur / 2.0
+    };
+    let win: Vec<_> = rows
+        .iter()
+        .filter(|r| (r.t_s - t_cross).abs() <= w60)
+        .collect();
+    let x = |r: &crate::scenario::TraceRow| (r.t_s - t_cross) * 1e6;
+    let line = |name: &str, steps: bool, f: &dyn Fn(&crate::scenario::TraceRow) -> f64| Series {
+        name: name.into(),
+        points: win.iter().map(|r| (x(r), f(r))).collect(),
+        steps,
+    };
+    chart(
+        &format!("{}: around a rising crossing of e_u (θe = 0)", t.variant),
+        "time from θe = 0 [µs]",
+        &[
+            Panel {
+                y_label: "voltage [V]".into(),
+                series: vec![
+                    line("v_u − v_n", false, &|r| r.v_u - r.v_n),
+                    line("v_u", false, &|r| r.v_u),
+                    line("v_n", false, &|r| r.v_n),
+                ],
+            },
+            Panel {
+                y_label: "logic (offset for legibility)".into(),
+                series: vec![
+                    line("Z_d raw", true, &|r| f64::from(r.zd)),
+                    line("Z_d filtered + 1.5", true, &|r| f64::from(r.zdf) + 1.5),
+                    line("linear region + 3", true, &|r| f64::from(r.linear) + 3.0),
+                    line("state / 12 + 4.5", true, &|r| {
+                        f64::from(r.state) / 12.0 + 4.5
+                    }),
+                ],
+            },
+        ],
+    )
+}
+
+fn markdown(c: &Comparison, config: &DriveConfig, crossings: &[String]) -> String {
+    let mut s = String::new();
+    let m = &config.motor;
+    let _ = writeln!(s, "# drive-bench report\n");
+    let _ = writeln!(
+        s,
+        "Every built-in commutation strategy on the same motor ({} poles, R = {} Ω, supply {} V, PWM scheme `{}`), each started from standstill by its own start-up sequence. Wall time {:.1} s on {} threads.\n",
+        m.poles,
+        m.resistance_ohm,
+        config.power_stage.supply_v,
+        config.power_stage.pwm_scheme.name(),
+        c.wall_s,
+        c.threads
+    );
+    let _ = writeln!(s, "## Summary\n\n```\n{}```\n", terminal_table(c));
+    let _ = writeln!(s, "## Metrics\n");
+    for (name, def) in METRIC_DEFINITIONS {
+        let _ = writeln!(s, "- **{name}**: {def}.");
+    }
+    let _ = writeln!(
+        s,
+        "\n## Speed range\n\n| strategy | min rpm | max rpm | runs |\n|---|---:|---:|---:|"
+    );
+    for r in &c.ranges {
+        let _ = writeln!(
+            s,
+            "| {} | {} | {} | {} |",
+            r.strategy,
+            opt(r.min_rpm, 1.0, 0),
+            opt(r.max_rpm, 1.0, 0),
+            r.tried.len()
+        );
+    }
+    let _ = writeln!(
+        s,
+        "\n## Steady state\n\n| strategy | command rpm | mean rpm | ripple rpm | torque mN·m | ripple mN·m | I rms A | err mean ° | err max ° | forced | restarts |\n|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"
+    );
+    for g in &c.grid {
+        let x = &g.summary;
+        let _ = writeln!(
+            s,
+            "| {} | {:.0} | {:.0} | {:.1} | {:.3} | {:.3} | {:.3} | {:+.2} | {:.2} | {} | {} |",
+            g.variant,
+            x.speed_ref_rpm,
+            x.speed_mean_rpm,
+            x.speed_ripple_rpm,
+            x.torque_mean_nm * 1e3,
+            x.torque_ripple_nm * 1e3,
+            x.current_rms_a,
+            x.commutation_error_deg_mean,
+            x.commutation_error_deg_max,
+            x.forced_crossings,
+            x.restarts
+        );
+    }
+    let _ = writeln!(
+        s,
+        "\n## Speed step {:.0} → {:.0} rpm\n\n| strategy | anti-windup | rise s | overshoot % | settling s | restarts |\n|---|---|---:|---:|---:|---:|",
+        c.plan.step.0, c.plan.step.1
+    );
+    for x in &c.steps {
+        let _ = writeln!(
+            s,
+            "| {} | {} | {} | {:.1} | {} | {} |",
+            x.variant,
+            if x.anti_windup { "on" } else { "off" },
+            opt(x.response.rise_s, 1.0, 3),
+            x.response.overshoot_pct,
+            opt(x.response.settling_s, 1.0, 3),
+            x.restarts
+        );
+    }
+    let _ = writeln!(
+        s,
+        "\n## Load step {:.2} mN·m at {:.0} rpm\n\n| strategy | dip rpm | recovery s | restarts |\n|---|---:|---:|---:|",
+        c.plan.load.1 * 1e3,
+        c.plan.load.0
+    );
+    for x in &c.loads {
+        let _ = writeln!(
+            s,
+            "| {} | {:.0} | {} | {} |",
+            x.variant,
+            x.response.dip,
+            opt(x.response.recovery_s, 1.0, 3),
+            x.restarts
+        );
+    }
+    let _ = writeln!(s, "\n## Plots\n");
+    for f in [
+        "speed_step.svg",
+        "load_step.svg",
+        "ripple_vs_speed.svg",
+        "phase_current.svg",
+    ] {
+        let _ = writeln!(s, "![{f}]({f})\n");
+    }
+    for f in crossings {
+        let _ = writeln!(s, "![{f}]({f})\n");
+    }
+    s
+}

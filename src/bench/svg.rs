@@ -1,0 +1,227 @@
+//! Minimal SVG line charts: stacked panels sharing one x axis, no dependencies.
+
+use std::fmt::Write;
+
+/// One line.
+pub struct Series {
+    /// Legend text.
+    pub name: String,
+    /// Points (x, y).
+    pub points: Vec<(f64, f64)>,
+    /// Draw as steps (sample-and-hold logic signals) instead of straight segments.
+    pub steps: bool,
+}
+
+/// One panel: its y label and lines.
+pub struct Panel {
+    /// Y-axis label (with unit).
+    pub y_label: String,
+    /// Lines.
+    pub series: Vec<Series>,
+}
+
+const COLORS: [&str; 8] = [
+    "#1f77b4", "#d62728", "#2ca02c", "#ff7f0e", "#9467bd", "#8c564b", "#e377c2", "#17becf",
+];
+const W: f64 = 900.0;
+const PANEL_H: f64 = 220.0;
+const LEFT: f64 = 70.0;
+const RIGHT: f64 = 190.0;
+const TOP: f64 = 40.0;
+const GAP: f64 = 30.0;
+const MAX_POINTS: usize = 4000;
+
+/// Round tick spacing covering `span` with about five ticks.
+fn tick_step(span: f64) -> f64 {
+    let raw = span / 5.0;
+    let mag = 10f64.powf(raw.log10().floor());
+    let n = raw / mag;
+    mag * if n < 1.5 {
+        1.0
+    } else if n < 3.5 {
+        2.0
+    } else if n < 7.5 {
+        5.0
+    } else {
+        10.0
+    }
+}
+
+fn bounds(values: impl Iterator<Item = f64>) -> (f64, f64) {
+    let (lo, hi) = values
+        .filter(|v| v.is_finite())
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
+            (a.min(v), b.max(v))
+        });
+    if !lo.is_finite() {
+        return (0.0, 1.0);
+    }
+    if hi - lo < 1e-12 * lo.abs().max(1.0) {
+        return (lo - 0.5, hi + 0.5);
+    }
+    let pad = 0.05 * (hi - lo);
+    (lo - pad, hi + pad)
+}
+
+fn escape(s: &str) -> String {
+    s.replace('&', "&amp;")
+        .replace('<', "&lt;")
+        .replace('>', "&gt;")
+}
+
+/// Renders `panels` stacked, under `title`, with the shared `x_label`.
+pub fn chart(title: &str, x_label: &str, panels: &[Panel]) -> String {
+    let h = TOP + panels.len() as f64 * (PANEL_H + GAP) + 30.0;
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        r#"<svg xmlns="http://www.w3.org/2000/svg" width="{W}" height="{h}" viewBox="0 0 {W} {h}" font-family="sans-serif" font-size="12">"#
+    );
+    let _ = writeln!(s, r#"<rect width="100%" height="100%" fill="white"/>"#);
+    let _ = writeln!(
+        s,
+        r#"<text x="{}" y="22" text-anchor="middle" font-size="15">{}</text>"#,
+        W / 2.0,
+        escape(title)
+    );
+    let (x0, x1) = bounds(
+        panels
+            .iter()
+            .flat_map(|p| p.series.iter().flat_map(|s| s.points.iter().map(|q| q.0))),
+    );
+    let pw = W - LEFT - RIGHT;
+    for (k, panel) in panels.iter().enumerate() {
+        let top = TOP + k as f64 * (PANEL_H + GAP);
+        let (y0, y1) = bounds(
+            panel
+                .series
+                .iter()
+                .flat_map(|s| s.points.iter().map(|q| q.1)),
+        );
+        let px = |x: f64| LEFT + (x - x0) / (x1 - x0) * pw;
+        let py = |y: f64| top + PANEL_H - (y - y0) / (y1 - y0) * PANEL_H;
+        let _ = writeln!(
+            s,
+            r##"<rect x="{LEFT}" y="{top}" width="{pw}" height="{PANEL_H}" fill="none" stroke="#888"/>"##
+        );
+        let dy = tick_step(y1 - y0);
+        let mut y = (y0 / dy).ceil() * dy;
+        while y <= y1 {
+            let _ = writeln!(
+                s,
+                r##"<line x1="{LEFT}" x2="{0}" y1="{1:.1}" y2="{1:.1}" stroke="#eee"/><text x="{2}" y="{3:.1}" text-anchor="end">{4}</text>"##,
+                LEFT + pw,
+                py(y),
+                LEFT - 5.0,
+                py(y) + 4.0,
+                fmt_tick(y, dy)
+            );
+            y += dy;
+        }
+        let dx = tick_step(x1 - x0);
+        let mut x = (x0 / dx).ceil() * dx;
+        while x <= x1 {
+            let _ = writeln!(
+                s,
+                r##"<line x1="{0:.1}" x2="{0:.1}" y1="{1}" y2="{2}" stroke="#eee"/><text x="{0:.1}" y="{3}" text-anchor="middle">{4}</text>"##,
+                px(x),
+                top,
+                top + PANEL_H,
+                top + PANEL_H + 14.0,
+                fmt_tick(x, dx)
+            );
+            x += dx;
+        }
+        let _ = writeln!(
+            s,
+            r#"<text transform="translate(15,{}) rotate(-90)" text-anchor="middle">{}</text>"#,
+            top + PANEL_H / 2.0,
+            escape(&panel.y_label)
+        );
+        for (j, series) in panel.series.iter().enumerate() {
+            let color = COLORS[j % COLORS.len()];
+            let stride = series.points.len().div_ceil(MAX_POINTS).max(1);
+            let mut d = String::new();
+            let mut prev_y = None;
+            for (n, &(x, y)) in series.points.iter().step_by(stride).enumerate() {
+                if !(x.is_finite() && y.is_finite()) {
+                    continue;
+                }
+                if n == 0 {
+                    let _ = write!(d, "M{:.1},{:.1}", px(x), py(y));
+                } else {
+                    if series.steps
+                        && let Some(py0) = prev_y
+                    {
+                        let _ = write!(d, " L{:.1},{:.1}", px(x), py0);
+                    }
+                    let _ = write!(d, " L{:.1},{:.1}", px(x), py(y));
+                }
+                prev_y = Some(py(y));
+            }
+            let _ = writeln!(
+                s,
+                r#"<path d="{d}" fill="none" stroke="{color}" stroke-width="1.3"/>"#
+            );
+            let ly = top + 14.0 + 16.0 * j as f64;
+            let _ = writeln!(
+                s,
+                r#"<line x1="{0}" x2="{1}" y1="{2}" y2="{2}" stroke="{color}" stroke-width="2"/><text x="{3}" y="{4}">{5}</text>"#,
+                LEFT + pw + 10.0,
+                LEFT + pw + 30.0,
+                ly - 4.0,
+                LEFT + pw + 35.0,
+                ly,
+                escape(&series.name)
+            );
+        }
+    }
+    let _ = writeln!(
+        s,
+        r#"<text x="{}" y="{}" text-anchor="middle">{}</text>"#,
+        LEFT + pw / 2.0,
+        h - 8.0,
+        escape(x_label)
+    );
+    s.push_str("</svg>\n");
+    s
+}
+
+fn fmt_tick(v: f64, step: f64) -> String {
+    let decimals = (-step.log10().floor()).max(0.0) as usize;
+    let v = if v.abs() < step * 1e-6 { 0.0 } else { v }; // no "-0"
+    format!("{v:.decimals$}")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn ticks_are_round_numbers() {
+        assert_eq!(tick_step(10.0), 2.0);
+        assert_eq!(tick_step(0.003), 0.0005);
+        assert_eq!(tick_step(7000.0), 1000.0);
+    }
+
+    #[test]
+    fn a_chart_is_well_formed_and_places_points_inside_its_panel() {
+        let svg = chart(
+            "t <1>",
+            "x",
+            &[Panel {
+                y_label: "y".into(),
+                series: vec![Series {
+                    name: "a&b".into(),
+                    points: vec![(0.0, 0.0), (1.0, 1.0)],
+                    steps: false,
+                }],
+            }],
+        );
+        assert!(svg.starts_with("<svg") && svg.ends_with("</svg>\n"));
+        assert!(svg.contains("t &lt;1&gt;") && svg.contains("a&amp;b"));
+        // x range padded by 5 %: x = 0 sits 1/22 of the plot width right of the left edge.
+        let x0 = LEFT + (W - LEFT - RIGHT) / 22.0;
+        assert!(svg.contains(&format!("M{x0:.1},")), "{svg}");
+    }
+}

@@ -1,0 +1,245 @@
+//! drive-bench: compares commutation strategies on the built-in motor (see the README).
+
+use bldc_drive::DriveConfig;
+use bldc_drive::bench::{self, Plan, pool, range, report};
+use bldc_drive::scenario::{self, Scenario, TraceRow, TraceSpec};
+use bldc_drive::strategies::StrategyName;
+use clap::{Args, Parser, Subcommand};
+use std::io::{BufWriter, IsTerminal, Write};
+use std::path::{Path, PathBuf};
+
+/// Compares sensorless commutation strategies on a simulated BLDC drive. Without a
+/// subcommand it runs the standard comparison and writes a report folder.
+#[derive(Parser)]
+#[command(name = "drive-bench", version, args_conflicts_with_subcommands = true)]
+struct Cli {
+    #[command(subcommand)]
+    cmd: Option<Cmd>,
+    #[command(flatten)]
+    compare: CompareArgs,
+}
+
+#[derive(Args)]
+struct CompareArgs {
+    /// Report folder to write.
+    #[arg(long, default_value = "drive-bench-report")]
+    out: PathBuf,
+    /// TOML config overriding the built-in motor, power stage, sensing and control.
+    #[arg(long)]
+    config: Option<PathBuf>,
+    /// Worker threads (default: every core).
+    #[arg(long, value_parser = clap::value_parser!(u16).range(1..=256))]
+    threads: Option<u16>,
+    /// A short comparison: one grid speed, no range search (for smoke tests).
+    #[arg(long)]
+    quick: bool,
+}
+
+#[derive(Subcommand)]
+enum Cmd {
+    /// Runs one scenario and prints its summary.
+    Run(RunArgs),
+    /// Finds the lowest and highest controllable speed of a strategy.
+    Range {
+        /// Strategy name (see `drive-bench list`).
+        #[arg(long)]
+        strategy: StrategyName,
+        /// TOML config.
+        #[arg(long)]
+        config: Option<PathBuf>,
+        /// Writes the result as JSON.
+        #[arg(long)]
+        json: Option<PathBuf>,
+    },
+    /// Lists the strategies.
+    List,
+    /// Prints the default config (every key, documented in the crate docs).
+    Config,
+}
+
+#[derive(Args)]
+#[command(allow_negative_numbers = true)]
+struct RunArgs {
+    /// Strategy name (see `drive-bench list`).
+    #[arg(long)]
+    strategy: StrategyName,
+    /// Speed command [rpm].
+    #[arg(long)]
+    speed_rpm: f64,
+    /// Simulated time [s]; steady state is the last third.
+    #[arg(long, default_value_t = 3.0)]
+    duration_s: f64,
+    /// Load torque on the shaft from t = 0 [N·m].
+    #[arg(long, default_value_t = 0.0)]
+    load_nm: f64,
+    /// TOML config.
+    #[arg(long)]
+    config: Option<PathBuf>,
+    /// Seed of the comparator noise (overrides `sensing.seed`).
+    #[arg(long)]
+    seed: Option<u64>,
+    /// Writes a trace (CSV) of the whole run.
+    #[arg(long)]
+    trace: Option<PathBuf>,
+    /// Trace sampling period [µs].
+    #[arg(long, default_value_t = 10.0)]
+    trace_every_us: f64,
+    /// Writes the summary as JSON.
+    #[arg(long)]
+    json: Option<PathBuf>,
+}
+
+fn main() {
+    let cli = Cli::parse();
+    if let Err(e) = run(cli) {
+        eprintln!("drive-bench: error: {e}");
+        std::process::exit(1);
+    }
+}
+
+fn run(cli: Cli) -> Result<(), String> {
+    match cli.cmd {
+        None => compare(cli.compare),
+        Some(Cmd::Run(a)) => run_one(a),
+        Some(Cmd::Range {
+            strategy,
+            config,
+            json,
+        }) => {
+            let mut cfg = load_config(config.as_deref())?;
+            cfg.strategy.name = strategy;
+            cfg.validate().map_err(|e| e.to_string())?;
+            let r = range::search(&cfg, strategy.as_str()).map_err(|e| e.to_string())?;
+            println!(
+                "{}: min {} rpm, max {} rpm ({} runs)\ncriterion: {}",
+                r.strategy,
+                r.min_rpm.map_or("none".into(), |x| format!("{x:.0}")),
+                r.max_rpm.map_or("none".into(), |x| format!("{x:.0}")),
+                r.tried.len(),
+                r.criterion
+            );
+            if let Some(p) = json {
+                write(&p, &to_json(&r)?)?;
+            }
+            Ok(())
+        }
+        Some(Cmd::List) => {
+            for n in StrategyName::ALL {
+                println!("{n}");
+            }
+            Ok(())
+        }
+        Some(Cmd::Config) => {
+            print!("{}", DriveConfig::default().to_toml());
+            Ok(())
+        }
+    }
+}
+
+fn compare(a: CompareArgs) -> Result<(), String> {
+    let cfg = load_config(a.config.as_deref())?;
+    let mut plan = Plan::default();
+    if a.quick {
+        plan.grid_rpm = vec![plan.trace_rpm];
+        plan.ranges = false;
+    }
+    let threads = a.threads.map_or_else(pool::default_threads, usize::from);
+    let variants = bench::standard_variants(&cfg.strategy);
+    let cmp = bench::compare(
+        &cfg,
+        variants,
+        plan,
+        threads,
+        std::io::stderr().is_terminal(),
+    )
+    .map_err(|e| e.to_string())?;
+    print!("{}", report::terminal_table(&cmp));
+    let files = report::write_folder(&cmp, &cfg, &a.out)
+        .map_err(|e| format!("writing the report to {}: {e}", a.out.display()))?;
+    println!(
+        "report: {} ({} files)",
+        a.out.join("report.md").display(),
+        files.len()
+    );
+    Ok(())
+}
+
+fn run_one(a: RunArgs) -> Result<(), String> {
+    let mut cfg = load_config(a.config.as_deref())?;
+    cfg.strategy.name = a.strategy;
+    if let Some(seed) = a.seed {
+        cfg.sensing.seed = seed;
+    }
+    let mut sc = Scenario::hold(cfg, a.speed_rpm, a.duration_s);
+    if a.load_nm != 0.0 || !a.load_nm.is_finite() {
+        sc.load_steps.push((0.0, a.load_nm));
+    }
+    if a.trace.is_some() {
+        sc.trace = Some(TraceSpec {
+            every_s: a.trace_every_us * 1e-6,
+            from_s: 0.0,
+            to_s: a.duration_s,
+        });
+    }
+    let mut trace = match &a.trace {
+        Some(p) => {
+            let f = std::fs::File::create(p).map_err(|e| format!("{}: {e}", p.display()))?;
+            let mut w = BufWriter::new(f);
+            writeln!(w, "{}", TraceRow::HEADER).map_err(|e| format!("{}: {e}", p.display()))?;
+            Some((p, w))
+        }
+        None => None,
+    };
+    let mut write_err = None;
+    let out = scenario::run(&sc, |row| {
+        if let Some((_, w)) = trace.as_mut()
+            && write_err.is_none()
+            && let Err(e) = writeln!(w, "{}", row.csv())
+        {
+            write_err = Some(e);
+        }
+    })
+    .map_err(|e| e.to_string())?;
+    if let Some((p, mut w)) = trace {
+        if let Some(e) = write_err.take().or_else(|| w.flush().err()) {
+            return Err(format!("{}: {e}", p.display()));
+        }
+    }
+    let s = &out.summary;
+    println!(
+        "{} at {:.0} rpm: mean {:.1} rpm, ripple {:.2} rpm, torque {:.4} mN·m ± {:.4}, I rms {:.4} A, commutation error {:+.2}° mean / {:.2}° max over {} commutations, {} restarts, {} ({:.1}× real time)",
+        s.strategy,
+        s.speed_ref_rpm,
+        s.speed_mean_rpm,
+        s.speed_ripple_rpm,
+        s.torque_mean_nm * 1e3,
+        s.torque_ripple_nm * 1e3,
+        s.current_rms_a,
+        s.commutation_error_deg_mean,
+        s.commutation_error_deg_max,
+        s.commutations,
+        s.restarts,
+        if s.running { "running" } else { "NOT running" },
+        s.realtime_factor
+    );
+    if let Some(p) = a.json {
+        write(&p, &to_json(s)?)?;
+    }
+    Ok(())
+}
+
+fn load_config(path: Option<&Path>) -> Result<DriveConfig, String> {
+    let Some(p) = path else {
+        return Ok(DriveConfig::default());
+    };
+    let text = std::fs::read_to_string(p).map_err(|e| format!("{}: {e}", p.display()))?;
+    DriveConfig::from_toml(&text).map_err(|e| format!("{}: {e}", p.display()))
+}
+
+fn to_json<T: serde::Serialize>(v: &T) -> Result<String, String> {
+    serde_json::to_string_pretty(v).map_err(|e| e.to_string())
+}
+
+fn write(p: &Path, text: &str) -> Result<(), String> {
+    std::fs::write(p, text).map_err(|e| format!("{}: {e}", p.display()))
+}

@@ -1,0 +1,272 @@
+//! drive-bench end to end: the binary as a user runs it.
+
+use bldc_drive::DriveConfig;
+use std::path::PathBuf;
+use std::process::{Command, Output};
+
+fn bench(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_drive-bench"))
+        .args(args)
+        .output()
+        .expect("drive-bench runs")
+}
+
+fn tmp(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("drive-bench-cli-{}", std::process::id()));
+    std::fs::create_dir_all(&d).unwrap();
+    d.join(name)
+}
+
+fn text(b: &[u8]) -> String {
+    String::from_utf8_lossy(b).into_owned()
+}
+
+#[test]
+fn run_writes_a_trace_with_the_documented_columns_and_an_honest_summary() {
+    let (csv, json) = (tmp("trace.csv"), tmp("run.json"));
+    let out = bench(&[
+        "run",
+        "--strategy",
+        "twelve-step-df",
+        "--speed-rpm",
+        "3000",
+        "--duration-s",
+        "2.5",
+        "--seed",
+        "7",
+        "--trace",
+        csv.to_str().unwrap(),
+        "--trace-every-us",
+        "100",
+        "--json",
+        json.to_str().unwrap(),
+    ]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let trace = std::fs::read_to_string(&csv).unwrap();
+    let mut lines = trace.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    for col in [
+        "t_s",
+        "speed_rpm",
+        "speed_est_rpm",
+        "theta_e_deg",
+        "i_u",
+        "i_v",
+        "i_w",
+        "v_u",
+        "v_v",
+        "v_w",
+        "v_n",
+        "torque_nm",
+        "state",
+        "zd",
+        "zdf",
+        "linear",
+        "duty",
+        "restarts",
+    ] {
+        assert!(header.contains(&col), "missing column {col}");
+    }
+    let rows: Vec<Vec<f64>> = lines
+        .map(|l| l.split(',').map(|x| x.parse().unwrap()).collect())
+        .collect();
+    // One row every 100 µs from 0 to 2.5 s inclusive.
+    assert_eq!(rows.len(), 25_001);
+    let col = |name: &str| header.iter().position(|h| *h == name).unwrap();
+    let last = rows.last().unwrap();
+    assert!((last[col("t_s")] - 2.5).abs() < 1e-9);
+    assert!((last[col("speed_rpm")] - 3000.0).abs() < 150.0);
+    assert!(
+        rows.iter()
+            .all(|r| (0.0..360.0).contains(&r[col("theta_e_deg")]))
+    );
+    assert!(rows.iter().all(|r| (0.0..=12.0).contains(&r[col("state")])));
+    assert!(rows.iter().all(|r| (0.0..=1.0).contains(&r[col("duty")])));
+    // Kirchhoff at the star point: the three phase currents sum to zero.
+    assert!(
+        rows.iter()
+            .all(|r| (r[col("i_u")] + r[col("i_v")] + r[col("i_w")]).abs() < 1e-5)
+    );
+
+    let j: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    for key in [
+        "strategy",
+        "speed_ref_rpm",
+        "speed_mean_rpm",
+        "speed_ripple_rpm",
+        "torque_mean_nm",
+        "torque_ripple_nm",
+        "current_rms_a",
+        "restarts",
+        "commutation_error_deg_mean",
+        "commutation_error_deg_max",
+        "sim_s",
+        "wall_s",
+        "realtime_factor",
+    ] {
+        assert!(j.get(key).is_some(), "missing {key}");
+    }
+    assert_eq!(j["strategy"], "twelve-step-df");
+    assert_eq!(j["sim_s"], 2.5);
+    // The summary's steady-state mean agrees with the trace's own mean over the window
+    // (a uniform 100 µs sampling of the same signal).
+    let from = j["steady_from_s"].as_f64().unwrap();
+    let w: Vec<f64> = rows
+        .iter()
+        .filter(|r| r[col("t_s")] >= from)
+        .map(|r| r[col("speed_rpm")])
+        .collect();
+    let trace_mean = w.iter().sum::<f64>() / w.len() as f64;
+    assert!((j["speed_mean_rpm"].as_f64().unwrap() - trace_mean).abs() < 2.0);
+    assert!((trace_mean - 3000.0).abs() < 60.0, "{trace_mean}");
+}
+
+#[test]
+fn range_reports_bounds_around_the_default_speed_and_its_criterion() {
+    let json = tmp("range.json");
+    let out = bench(&[
+        "range",
+        "--strategy",
+        "twelve-step-df",
+        "--json",
+        json.to_str().unwrap(),
+    ]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let j: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let (lo, hi) = (
+        j["min_rpm"].as_f64().unwrap(),
+        j["max_rpm"].as_f64().unwrap(),
+    );
+    assert!(lo < 2000.0 && hi > 6000.0 && hi <= 16000.0, "{lo} .. {hi}");
+    assert!(j["criterion"].as_str().unwrap().contains("2 %"));
+    assert_eq!(j["strategy"], "twelve-step-df");
+}
+
+#[test]
+fn bad_flags_values_and_config_keys_are_named() {
+    let out = bench(&[
+        "run",
+        "--strategy",
+        "twelve-step-df",
+        "--speed-rpm",
+        "3000",
+        "--bogus",
+    ]);
+    assert!(!out.status.success());
+    assert!(
+        text(&out.stderr).contains("--bogus"),
+        "{}",
+        text(&out.stderr)
+    );
+
+    let out = bench(&["run", "--strategy", "fourteen-step", "--speed-rpm", "3000"]);
+    assert!(!out.status.success());
+    let e = text(&out.stderr);
+    assert!(
+        e.contains("fourteen-step") && e.contains("twelve-step-df"),
+        "{e}"
+    );
+
+    let out = bench(&[
+        "run",
+        "--strategy",
+        "twelve-step-df",
+        "--speed-rpm",
+        "3000",
+        "--duration-s",
+        "-1",
+    ]);
+    assert!(!out.status.success());
+    assert!(
+        text(&out.stderr).contains("duration"),
+        "{}",
+        text(&out.stderr)
+    );
+
+    let cfg = tmp("bad.toml");
+    std::fs::write(&cfg, "[motor]\npoles = 12\nbogus_key = 1.0\n").unwrap();
+    let out = bench(&[
+        "run",
+        "--strategy",
+        "twelve-step-df",
+        "--speed-rpm",
+        "3000",
+        "--config",
+        cfg.to_str().unwrap(),
+    ]);
+    assert!(!out.status.success());
+    assert!(
+        text(&out.stderr).contains("bogus_key"),
+        "{}",
+        text(&out.stderr)
+    );
+
+    std::fs::write(&cfg, "[strategy]\nlm_speed_max_rpm = 500.0\n").unwrap();
+    let out = bench(&[
+        "range",
+        "--strategy",
+        "twelve-step-lm",
+        "--config",
+        cfg.to_str().unwrap(),
+    ]);
+    assert!(!out.status.success());
+    assert!(
+        text(&out.stderr).contains("lm_speed_max_rpm"),
+        "{}",
+        text(&out.stderr)
+    );
+}
+
+#[test]
+fn list_and_config_print_what_the_other_commands_accept() {
+    let out = bench(&["list"]);
+    assert!(out.status.success());
+    let names = text(&out.stdout);
+    for n in [
+        "six-step-120",
+        "twelve-step-raw",
+        "twelve-step-nd",
+        "twelve-step-lm",
+        "twelve-step-df",
+    ] {
+        assert!(names.lines().any(|l| l == n), "{n} not listed");
+    }
+    let out = bench(&["config"]);
+    assert!(out.status.success());
+    let cfg = DriveConfig::from_toml(&text(&out.stdout)).expect("the printed config parses");
+    assert_eq!(cfg, DriveConfig::default());
+}
+
+#[test]
+fn the_quick_comparison_writes_the_report_folder() {
+    let dir = tmp("report");
+    let out = bench(&["--quick", "--out", dir.to_str().unwrap()]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let table = text(&out.stdout);
+    for n in ["six-step-120", "twelve-step-df@135", "twelve-step-df@165"] {
+        assert!(table.contains(n), "{n} missing from\n{table}");
+    }
+    for f in [
+        "results.json",
+        "results.csv",
+        "report.md",
+        "speed_step.svg",
+        "load_step.svg",
+        "ripple_vs_speed.svg",
+        "phase_current.svg",
+        "crossing_twelve-step-raw.svg",
+    ] {
+        let p = dir.join(f);
+        assert!(
+            p.is_file() && std::fs::metadata(&p).unwrap().len() > 200,
+            "{f}"
+        );
+    }
+    let j: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("results.json")).unwrap()).unwrap();
+    assert_eq!(j["grid"].as_array().unwrap().len(), 7);
+    let md = std::fs::read_to_string(dir.join("report.md")).unwrap();
+    assert!(md.contains("## Metrics") && md.contains("commutation error"));
+}
