@@ -36,6 +36,9 @@ pub struct Range {
     pub resolution_pct: f64,
     /// Every speed tried and whether it passed.
     pub tried: Vec<(f64, bool)>,
+    /// Speeds tried between the bounds that failed: bisection assumes the controllable
+    /// speeds form one interval, and these show where that does not hold.
+    pub gaps_rpm: Vec<f64>,
 }
 
 /// Whether `rpm` is controllable, with the run's summary.
@@ -69,6 +72,7 @@ pub fn search(config: &DriveConfig, label: &str) -> Result<Range, RunError> {
             criterion: CRITERION,
             resolution_pct: RESOLUTION * 100.0,
             tried,
+            gaps_rpm: Vec::new(),
         });
     };
     // Down: `good` passes, `bad` fails (or is below the search floor).
@@ -91,10 +95,17 @@ pub fn search(config: &DriveConfig, label: &str) -> Result<Range, RunError> {
             if test(mid)? { good = mid } else { bad = mid }
         }
     }
+    let max_rpm = good.round();
+    let gaps_rpm = tried
+        .iter()
+        .filter(|&&(rpm, ok)| !ok && rpm > min_rpm && rpm < max_rpm)
+        .map(|&(rpm, _)| rpm.round())
+        .collect();
     Ok(Range {
         strategy: label.to_string(),
         min_rpm: Some(min_rpm),
-        max_rpm: Some(good.round()),
+        max_rpm: Some(max_rpm),
+        gaps_rpm,
         criterion: CRITERION,
         resolution_pct: RESOLUTION * 100.0,
         tried,

@@ -394,18 +394,28 @@ fn markdown(c: &Comparison, config: &DriveConfig, crossings: &[String]) -> Strin
     }
     let _ = writeln!(
         s,
-        "\n## Speed range\n\n| strategy | min rpm | max rpm | runs |\n|---|---:|---:|---:|"
+        "\n## Speed range\n\n| strategy | min rpm | max rpm | runs | failed inside the range |\n|---|---:|---:|---:|---|"
     );
     for r in &c.ranges {
+        let gaps: Vec<String> = r.gaps_rpm.iter().map(|g| format!("{g:.0}")).collect();
         let _ = writeln!(
             s,
-            "| {} | {} | {} | {} |",
+            "| {} | {} | {} | {} | {} |",
             r.strategy,
             opt(r.min_rpm, 1.0, 0),
             opt(r.max_rpm, 1.0, 0),
-            r.tried.len()
+            r.tried.len(),
+            if gaps.is_empty() {
+                "–".to_string()
+            } else {
+                gaps.join(", ")
+            }
         );
     }
+    let _ = writeln!(
+        s,
+        "\nThe search is a bisection from the first of 3000, 2000, 4500, 1000, 6000 rpm that passes; it assumes the controllable speeds form one interval. Speeds listed as failed inside the range show where that assumption breaks."
+    );
     let _ = writeln!(
         s,
         "\n## Steady state\n\n| strategy | command rpm | mean rpm | ripple rpm | torque mN·m | ripple mN·m | I rms A | err mean ° | err max ° | forced | restarts |\n|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"
