@@ -5,7 +5,7 @@ use drive_core::error::ParamError;
 use drive_core::pwm::PwmSchemeKind;
 use drive_core::{Carrier, Engine, EngineError, Ticks};
 use plants::BldcPlant;
-use strategies::{Chip, Strategy};
+use strategies::{Chip, PluginError, PluginLibrary, Strategy};
 
 /// The engine type of a drive: the PWM scheme is chosen by `[power_stage] pwm_scheme`.
 /// The strategy is a trait object so built-in and plugin strategies are interchangeable.
@@ -28,6 +28,42 @@ pub fn build(config: &DriveConfig) -> Result<DriveEngine, ParamError> {
     Ok(Engine::new(
         plant,
         chip,
+        config.power_stage.pwm_scheme,
+        carrier,
+        dead_time,
+    ))
+}
+
+/// Why a drive with a plugin strategy could not be built.
+#[derive(Debug, thiserror::Error)]
+pub enum BuildError {
+    /// A config value breaks its rule.
+    #[error("{0}")]
+    Param(#[from] ParamError),
+    /// The plugin refused the config or failed.
+    #[error("{0}")]
+    Plugin(#[from] PluginError),
+}
+
+/// Like [`build`], with the strategy created by `plugin` from the whole config (as TOML)
+/// instead of the built-in chip.
+pub fn build_plugin(
+    config: &DriveConfig,
+    plugin: &PluginLibrary,
+) -> Result<DriveEngine, BuildError> {
+    config.validate()?;
+    let plant = BldcPlant::new(config.plant_params())?;
+    let carrier = Carrier::default();
+    let info = strategies::plugin::DriveInfo {
+        pole_pairs: config.motor.poles / 2,
+        amps_per_code: plant.current_sense().amps_per_code(),
+        carrier_top: carrier.top,
+    };
+    let strategy = plugin.instantiate(&config.to_toml(), info, config.control.speed_ref_rpm)?;
+    let dead_time = config.power_stage.dead_time();
+    Ok(Engine::new(
+        plant,
+        Box::new(strategy),
         config.power_stage.pwm_scheme,
         carrier,
         dead_time,

@@ -2,13 +2,13 @@
 //! schedule, with steady-state metrics, a decimated speed record and an optional trace.
 
 use crate::config::DriveConfig;
-use crate::drive::{DriveEngine, build};
+use crate::drive::{BuildError, DriveEngine, build, build_plugin};
 use crate::metrics::{AngleErrors, TimeStats};
 use drive_core::error::ParamError;
 use drive_core::{EngineError, StopReason, Ticks};
 use serde::Serialize;
 use std::time::Instant;
-use strategies::Mode;
+use strategies::{Mode, PluginLibrary};
 
 /// What to simulate.
 #[derive(Clone, Debug)]
@@ -27,6 +27,8 @@ pub struct Scenario {
     pub trace: Option<TraceSpec>,
     /// Period of the decimated true-speed record [s] (for step responses and plots).
     pub speed_record_s: f64,
+    /// A plugin strategy to use instead of the built-in one named in the config.
+    pub plugin: Option<PluginLibrary>,
 }
 
 /// Which trace rows to produce.
@@ -54,6 +56,7 @@ impl Scenario {
             steady_from_s: (duration_s * 2.0 / 3.0).min(duration_s - 0.5).max(0.0),
             trace: None,
             speed_record_s: 1e-3,
+            plugin: None,
         }
     }
 
@@ -270,15 +273,21 @@ pub enum RunError {
     /// A parameter or schedule value breaks its rule.
     #[error("{0}")]
     Param(#[from] ParamError),
-    /// The engine refused a command (e.g. a shoot-through).
+    /// The engine refused a command (e.g. a shoot-through) or the strategy faulted.
     #[error("{0}")]
     Engine(#[from] EngineError),
+    /// The plugin could not be instantiated.
+    #[error("{0}")]
+    Build(#[from] BuildError),
 }
 
 /// Runs `sc`, calling `on_row` for every trace row.
 pub fn run(sc: &Scenario, mut on_row: impl FnMut(&TraceRow)) -> Result<Outcome, RunError> {
     sc.validate()?;
-    let mut eng = build(&sc.config)?;
+    let mut eng = match &sc.plugin {
+        Some(p) => build_plugin(&sc.config, p)?,
+        None => build(&sc.config)?,
+    };
     let wall = Instant::now();
     let trace = sc.trace.map(|t| {
         let every = Ticks(((t.every_s / Ticks(1).seconds()).round() as u64).max(1));

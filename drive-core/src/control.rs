@@ -53,6 +53,12 @@ pub trait Controller {
 
     /// Runs the controller at the clock edge `now` with the signals it sees there.
     fn tick(&mut self, now: Ticks, sensed: &Sensed) -> Command;
+
+    /// Why the controller cannot go on (e.g. a plugin that failed or returned a command
+    /// the host refused). The engine stops with an error after a tick that set it.
+    fn fault(&self) -> Option<&str> {
+        None
+    }
 }
 
 impl<C: Controller + ?Sized> Controller for &mut C {
@@ -62,6 +68,9 @@ impl<C: Controller + ?Sized> Controller for &mut C {
     fn tick(&mut self, now: Ticks, sensed: &Sensed) -> Command {
         (**self).tick(now, sensed)
     }
+    fn fault(&self) -> Option<&str> {
+        (**self).fault()
+    }
 }
 
 impl<C: Controller + ?Sized> Controller for Box<C> {
@@ -70,6 +79,9 @@ impl<C: Controller + ?Sized> Controller for Box<C> {
     }
     fn tick(&mut self, now: Ticks, sensed: &Sensed) -> Command {
         (**self).tick(now, sensed)
+    }
+    fn fault(&self) -> Option<&str> {
+        (**self).fault()
     }
 }
 

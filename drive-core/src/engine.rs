@@ -43,6 +43,14 @@ pub enum EngineError {
         /// Which leg.
         source: ShootThrough,
     },
+    /// The controller reported a fault (see [`Controller::fault`]).
+    #[error("at t = {time_s} s the controller stopped: {message}")]
+    ControllerFault {
+        /// When [s].
+        time_s: f64,
+        /// The controller's reason.
+        message: String,
+    },
 }
 
 /// Plant + controller + PWM scheme on one master clock.
@@ -213,6 +221,13 @@ impl<P: Plant, C: Controller, S: PwmScheme> Engine<P, C, S> {
             self.last_tick = Some(t);
             let sensed = self.plant.sensed(t);
             self.cmd = self.controller.tick(t, &sensed);
+            if let Some(message) = self.controller.fault() {
+                self.cmd = Command::OFF;
+                return Err(EngineError::ControllerFault {
+                    time_s: t.seconds(),
+                    message: message.to_string(),
+                });
+            }
             let clock = self.controller.clock();
             let asked = self.cmd.wake_at.max(Ticks(t.0 + 1));
             self.wake = if self.cmd.wake_at == Ticks::NEVER {

@@ -119,7 +119,10 @@ fn run(cli: Cli) -> Result<(), String> {
                 r.criterion
             );
             if !r.gaps_rpm.is_empty() {
-                println!("failed inside the range (not one interval): {:?} rpm", r.gaps_rpm);
+                println!(
+                    "failed inside the range (not one interval): {:?} rpm",
+                    r.gaps_rpm
+                );
             }
             if let Some(p) = json {
                 write(&p, &to_json(&r)?)?;

@@ -1,0 +1,89 @@
+//! Test fixture for the host's plugin checks. The environment variable
+//! `BLDC_TEST_MISBEHAVE` chooses the fault, read when the entry symbol is called (header
+//! faults) or when an instance is created (call faults):
+//! `magic` (wrong magic), `major` (ABI major + 1), `null-header`, `panic` (step panics),
+//! `shoot-through` (step commands both switches of leg u on), `create-error`; anything
+//! else: a well-behaved strategy that keeps the bridge off.
+
+use strategy_abi::{
+    ABI_MAJOR, ABI_MINOR, CCommand, CSensed, CStatus, CTable, DriveInfo, Header, Inputs, LEG_HIGH,
+    LEG_LOW, MAGIC, Plugin, VTable, vtable_of,
+};
+
+fn mode() -> String {
+    std::env::var("BLDC_TEST_MISBEHAVE").unwrap_or_default()
+}
+
+#[derive(Clone)]
+struct Misbehaving {
+    mode: String,
+}
+
+impl Plugin for Misbehaving {
+    fn create(_config: &str, _info: &DriveInfo) -> Result<Self, String> {
+        let mode = mode();
+        if mode == "create-error" {
+            return Err("create-error requested by BLDC_TEST_MISBEHAVE".into());
+        }
+        Ok(Misbehaving { mode })
+    }
+    fn clock(&self) -> u64 {
+        32
+    }
+    fn table(&self) -> CTable {
+        CTable {
+            kind: 1,
+            conduction_deg: 150.0,
+        }
+    }
+    fn set_inputs(&mut self, _inputs: &Inputs) {}
+    fn step(&mut self, now: u64, _sensed: &CSensed) -> Result<(CCommand, CStatus), String> {
+        let mut c = CCommand {
+            wake_at: now + 32_000,
+            ..CCommand::default()
+        };
+        if now >= 64_000 {
+            match self.mode.as_str() {
+                "panic" => panic!("deliberate panic at tick {now}"),
+                "shoot-through" => c.legs = [LEG_HIGH | LEG_LOW, LEG_LOW, 0],
+                _ => {}
+            }
+        }
+        Ok((c, CStatus::default()))
+    }
+}
+
+struct Headers {
+    good: Header,
+    magic: Header,
+    major: Header,
+}
+
+const fn header(magic: [u8; 8], major: u32) -> Header {
+    Header {
+        magic,
+        abi_major: major,
+        abi_minor: ABI_MINOR,
+        name: c"misbehaving".as_ptr(),
+        description: c"test fixture".as_ptr(),
+        vtable_size: size_of::<VTable>() as u32,
+        vtable: vtable_of::<Misbehaving>(),
+    }
+}
+
+static HEADERS: Headers = Headers {
+    good: header(MAGIC, ABI_MAJOR),
+    magic: header(*b"NOTBLDC!", ABI_MAJOR),
+    major: header(MAGIC, ABI_MAJOR + 1),
+};
+
+/// The entry symbol, answering according to `BLDC_TEST_MISBEHAVE`.
+#[unsafe(no_mangle)]
+pub extern "C" fn bldc_strategy_entry() -> *const Header {
+    match mode().as_str() {
+        "magic" => &HEADERS.magic,
+        "major" => &HEADERS.major,
+        "null-header" => std::ptr::null(),
+        _ => &HEADERS.good,
+    }
+}

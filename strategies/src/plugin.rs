@@ -1,0 +1,564 @@
+//! The host side of strategy plugins: loads a shared library, checks its header before
+//! touching anything else, and wraps its instances as [`Strategy`]s.
+//!
+//! The library stays loaded as long as any instance made from it (each holds an `Arc`).
+//! Every plugin failure becomes a [`PluginError`] naming the file; a failure during a
+//! step (an error, a panic caught on the plugin side, or a command the host refuses such
+//! as both switches of a leg on) becomes a controller fault that stops the engine.
+
+use crate::chip::{ChipStatus, Mode};
+use crate::strategy::Strategy;
+use crate::table::{OFF_FLAG, Table, flag_of};
+use drive_core::{Abc, Command, Controller, LegState, Sensed, Ticks};
+use std::ffi::{CStr, CString, c_char};
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use strategy_abi as abi;
+
+pub use abi::DriveInfo;
+
+const SYMBOL: &str = "bldc_strategy_entry";
+
+/// Why a plugin cannot be used.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum PluginError {
+    /// The file could not be opened as a shared library.
+    #[error("plugin {path}: not a loadable shared library: {reason}")]
+    NotALibrary {
+        /// File.
+        path: PathBuf,
+        /// The loader's message.
+        reason: String,
+    },
+    /// The entry symbol is missing.
+    #[error(
+        "plugin {path}: symbol `{SYMBOL}` not found (rule: a strategy plugin exports it, see the strategy-abi crate; host ABI {host_major}.{host_minor}): {reason}"
+    )]
+    NoEntry {
+        /// File.
+        path: PathBuf,
+        /// Host ABI major.
+        host_major: u32,
+        /// Host ABI minor.
+        host_minor: u32,
+        /// The loader's message.
+        reason: String,
+    },
+    /// The header is missing or malformed.
+    #[error("plugin {path}: symbol `{SYMBOL}`: {problem}")]
+    BadHeader {
+        /// File.
+        path: PathBuf,
+        /// What is wrong.
+        problem: String,
+    },
+    /// The ABI versions are incompatible.
+    #[error(
+        "plugin {path}: symbol `{SYMBOL}`: ABI {plugin_major}.{plugin_minor} (plugin) vs {host_major}.{host_minor} (host) (rule: majors must be equal)"
+    )]
+    Version {
+        /// File.
+        path: PathBuf,
+        /// Plugin ABI major.
+        plugin_major: u32,
+        /// Plugin ABI minor.
+        plugin_minor: u32,
+        /// Host ABI major.
+        host_major: u32,
+        /// Host ABI minor.
+        host_minor: u32,
+    },
+    /// A call into the plugin failed.
+    #[error("plugin `{name}` ({path}): {call}: {message}")]
+    Call {
+        /// File.
+        path: PathBuf,
+        /// Strategy name.
+        name: String,
+        /// The vtable function.
+        call: &'static str,
+        /// The plugin's message.
+        message: String,
+    },
+}
+
+struct Loaded {
+    path: PathBuf,
+    name: String,
+    description: String,
+    vtable: abi::VTable,
+    // Last: the vtable points into it.
+    _lib: libloading::Library,
+}
+
+/// A loaded strategy plugin.
+#[derive(Clone)]
+pub struct PluginLibrary {
+    inner: Arc<Loaded>,
+}
+
+impl std::fmt::Debug for PluginLibrary {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "PluginLibrary({} from {})",
+            self.inner.name,
+            self.inner.path.display()
+        )
+    }
+}
+
+fn text(p: *const c_char, what: &str, path: &Path) -> Result<String, PluginError> {
+    if p.is_null() {
+        return Err(PluginError::BadHeader {
+            path: path.into(),
+            problem: format!("{what} is a null pointer"),
+        });
+    }
+    // SAFETY: non-null, NUL-terminated static string per the ABI (magic already checked).
+    unsafe { CStr::from_ptr(p) }
+        .to_str()
+        .map(str::to_string)
+        .map_err(|e| PluginError::BadHeader {
+            path: path.into(),
+            problem: format!("{what} is not UTF-8: {e}"),
+        })
+}
+
+impl PluginLibrary {
+    /// Loads `path` and checks its header: magic, then ABI version, then the rest.
+    pub fn load(path: &Path) -> Result<Self, PluginError> {
+        let p = || path.to_path_buf();
+        // SAFETY: loading runs the library's initialisers; that is the contract of a
+        // plugin file the user chose to load.
+        let lib =
+            unsafe { libloading::Library::new(path) }.map_err(|e| PluginError::NotALibrary {
+                path: p(),
+                reason: e.to_string(),
+            })?;
+        // SAFETY: the symbol's type is fixed by the ABI; it is only called below.
+        let entry: abi::EntryFn =
+            *unsafe { lib.get::<abi::EntryFn>(abi::ENTRY_SYMBOL) }.map_err(|e| {
+                PluginError::NoEntry {
+                    path: p(),
+                    host_major: abi::ABI_MAJOR,
+                    host_minor: abi::ABI_MINOR,
+                    reason: e.to_string(),
+                }
+            })?;
+        // SAFETY: calling the entry function is the ABI's first step; it takes nothing.
+        let header = unsafe { entry() };
+        let bad = |problem: String| PluginError::BadHeader { path: p(), problem };
+        if header.is_null() {
+            return Err(bad("returned a null header".into()));
+        }
+        // Only the fixed prefix is read before the checks (see the versioning rules).
+        // SAFETY: non-null; magic and versions are at fixed offsets in every version.
+        let (magic, major, minor) = unsafe {
+            (
+                std::ptr::addr_of!((*header).magic).read_unaligned(),
+                std::ptr::addr_of!((*header).abi_major).read_unaligned(),
+                std::ptr::addr_of!((*header).abi_minor).read_unaligned(),
+            )
+        };
+        if magic != abi::MAGIC {
+            return Err(bad(format!(
+                "bad magic {magic:02x?} (expected {:02x?}): not a strategy plugin",
+                abi::MAGIC
+            )));
+        }
+        if major != abi::ABI_MAJOR {
+            return Err(PluginError::Version {
+                path: p(),
+                plugin_major: major,
+                plugin_minor: minor,
+                host_major: abi::ABI_MAJOR,
+                host_minor: abi::ABI_MINOR,
+            });
+        }
+        // SAFETY: magic and major match, so the header has this layout.
+        let h = unsafe { &*header };
+        let need = std::mem::size_of::<abi::VTable>() as u32;
+        if h.vtable_size < need {
+            return Err(bad(format!(
+                "vtable of {} bytes, ABI {}.0 requires {need}",
+                h.vtable_size,
+                abi::ABI_MAJOR
+            )));
+        }
+        let name = text(h.name, "name", path)?;
+        if name.is_empty() {
+            return Err(bad("empty name".into()));
+        }
+        let description = text(h.description, "description", path)?;
+        Ok(PluginLibrary {
+            inner: Arc::new(Loaded {
+                path: p(),
+                name,
+                description,
+                vtable: h.vtable,
+                _lib: lib,
+            }),
+        })
+    }
+
+    /// The strategy's name.
+    pub fn name(&self) -> &str {
+        &self.inner.name
+    }
+
+    /// Its description.
+    pub fn description(&self) -> &str {
+        &self.inner.description
+    }
+
+    /// The file it was loaded from.
+    pub fn path(&self) -> &Path {
+        &self.inner.path
+    }
+
+    /// Creates an instance from the drive's TOML config and facts, with the start input
+    /// high and the speed command `speed_ref_rpm` (as the built-in chip starts).
+    pub fn instantiate(
+        &self,
+        config_toml: &str,
+        info: abi::DriveInfo,
+        speed_ref_rpm: f64,
+    ) -> Result<PluginStrategy, PluginError> {
+        let call_err = |call, message| PluginError::Call {
+            path: self.inner.path.clone(),
+            name: self.inner.name.clone(),
+            call,
+            message,
+        };
+        let cfg = CString::new(config_toml)
+            .map_err(|_| call_err("create", "config contains a NUL byte".into()))?;
+        let mut buf = ErrBuf::new();
+        // SAFETY: valid pointers for the duration of the call.
+        let inst = unsafe { (self.inner.vtable.create)(cfg.as_ptr(), &info, buf.raw()) };
+        if inst.is_null() {
+            return Err(call_err("create", buf.message()));
+        }
+        let mut s = PluginStrategy {
+            lib: self.inner.clone(),
+            inst,
+            clock: Ticks(1),
+            table: Table::SixStep,
+            status: idle_status(),
+            fault: None,
+            inputs: abi::Inputs {
+                now: 0,
+                start: 1,
+                reset: 0,
+                speed_ref_rpm,
+            },
+            top: info.carrier_top,
+        };
+        let mut clock = 0u64;
+        // SAFETY: live instance, valid out pointers.
+        s.check(
+            unsafe { (s.lib.vtable.clock)(s.inst, &mut clock, buf.raw()) },
+            &buf,
+        )
+        .map_err(|m| call_err("clock", m))?;
+        if clock == 0 {
+            return Err(call_err(
+                "clock",
+                "clock period of 0 ticks (rule: >= 1)".into(),
+            ));
+        }
+        s.clock = Ticks(clock);
+        s.push_inputs();
+        if let Some(m) = s.fault.take() {
+            return Err(call_err("set_inputs", m));
+        }
+        let mut t = abi::CTable {
+            kind: 0,
+            conduction_deg: 0.0,
+        };
+        // SAFETY: as above.
+        s.check(
+            unsafe { (s.lib.vtable.table)(s.inst, &mut t, buf.raw()) },
+            &buf,
+        )
+        .map_err(|m| call_err("table", m))?;
+        s.table = match t.kind {
+            0 => Table::SixStep,
+            1 if (120.0..180.0).contains(&t.conduction_deg) => Table::TwelveStep {
+                conduction_deg: t.conduction_deg,
+            },
+            k => {
+                return Err(call_err(
+                    "table",
+                    format!(
+                        "kind {k}, conduction {}° (rule: 0 six-step, or 1 twelve-step with 120 <= angle < 180)",
+                        t.conduction_deg
+                    ),
+                ));
+            }
+        };
+        Ok(s)
+    }
+}
+
+/// A host-owned error buffer for one call.
+struct ErrBuf {
+    bytes: [u8; 512],
+    raw: abi::ErrorBuf,
+}
+
+impl ErrBuf {
+    fn new() -> Box<Self> {
+        let mut b = Box::new(ErrBuf {
+            bytes: [0; 512],
+            raw: abi::ErrorBuf {
+                ptr: std::ptr::null_mut(),
+                cap: 512,
+                len: 0,
+            },
+        });
+        b.raw.ptr = b.bytes.as_mut_ptr();
+        b
+    }
+    fn raw(&mut self) -> *mut abi::ErrorBuf {
+        self.raw.len = 0;
+        &mut self.raw
+    }
+    fn message(&self) -> String {
+        let n = self.raw.len.min(self.bytes.len());
+        let m = String::from_utf8_lossy(&self.bytes[..n]).into_owned();
+        if m.is_empty() {
+            "(no message)".into()
+        } else {
+            m
+        }
+    }
+}
+
+fn idle_status() -> ChipStatus {
+    ChipStatus {
+        mode: Mode::Off,
+        state: 0,
+        flag: OFF_FLAG,
+        zd: false,
+        zdf: false,
+        linear: false,
+        duty: 0,
+        speed_est_rpm: 0,
+        current_ref_a: 0.0,
+        restarts: 0,
+        crossings: 0,
+        forced_crossings: 0,
+    }
+}
+
+/// An instance of a plugin strategy.
+pub struct PluginStrategy {
+    lib: Arc<Loaded>,
+    inst: abi::Instance,
+    clock: Ticks,
+    table: Table,
+    status: ChipStatus,
+    fault: Option<String>,
+    inputs: abi::Inputs,
+    top: u32,
+}
+
+// SAFETY: the ABI requires instances to be movable between threads, and the host never
+// uses one from two threads at once (it is owned, `&mut` for every call).
+unsafe impl Send for PluginStrategy {}
+
+impl Drop for PluginStrategy {
+    fn drop(&mut self) {
+        // SAFETY: the instance came from create/clone of this library and is freed once.
+        unsafe { (self.lib.vtable.destroy)(self.inst) };
+    }
+}
+
+impl PluginStrategy {
+    fn check(&self, code: i32, buf: &ErrBuf) -> Result<(), String> {
+        match code {
+            abi::OK => Ok(()),
+            abi::PANICKED => Err(buf.message()),
+            abi::ERROR => Err(buf.message()),
+            c => Err(format!("unknown status code {c}: {}", buf.message())),
+        }
+    }
+
+    fn fail(&mut self, call: &str, message: String) {
+        if self.fault.is_none() {
+            self.fault = Some(format!(
+                "plugin `{}` ({}): {call}: {message}",
+                self.lib.name,
+                self.lib.path.display()
+            ));
+        }
+    }
+
+    fn push_inputs(&mut self) {
+        let mut buf = ErrBuf::new();
+        // SAFETY: live instance, valid pointers.
+        let code = unsafe { (self.lib.vtable.set_inputs)(self.inst, &self.inputs, buf.raw()) };
+        if let Err(m) = self.check(code, &buf) {
+            self.fail("set_inputs", m);
+        }
+    }
+
+    /// Converts the plugin's command, refusing anything the bridge must never see.
+    fn command(&self, c: &abi::CCommand) -> Result<Command, String> {
+        let mut legs = [LegState::Float; 3];
+        for (k, &bits) in c.legs.iter().enumerate() {
+            legs[k] = match bits {
+                0 => LegState::Float,
+                abi::LEG_HIGH => LegState::High,
+                abi::LEG_LOW => LegState::Low,
+                b if b == abi::LEG_HIGH | abi::LEG_LOW => {
+                    return Err(format!(
+                        "both switches of leg {} on: shoot-through refused (rule: at most one switch per leg)",
+                        ["u", "v", "w"][k]
+                    ));
+                }
+                b => {
+                    return Err(format!(
+                        "leg {} bits {b:#04b} (rule: 0, 1 high or 2 low)",
+                        ["u", "v", "w"][k]
+                    ));
+                }
+            };
+        }
+        if c.duty > self.top {
+            return Err(format!("duty {} counts (rule: 0..={})", c.duty, self.top));
+        }
+        Ok(Command {
+            pattern: Abc {
+                u: legs[0],
+                v: legs[1],
+                w: legs[2],
+            },
+            duty: c.duty,
+            watch: Abc {
+                u: c.watch[0] != 0,
+                v: c.watch[1] != 0,
+                w: c.watch[2] != 0,
+            },
+            wake_at: if c.wake_at == u64::MAX {
+                Ticks::NEVER
+            } else {
+                Ticks(c.wake_at)
+            },
+        })
+    }
+}
+
+impl Controller for PluginStrategy {
+    fn clock(&self) -> Ticks {
+        self.clock
+    }
+
+    fn tick(&mut self, now: Ticks, sensed: &Sensed) -> Command {
+        if self.fault.is_some() {
+            return Command::OFF;
+        }
+        let s = abi::CSensed {
+            zc: [sensed.zc.u.into(), sensed.zc.v.into(), sensed.zc.w.into()],
+            current_code: sensed.current_code,
+        };
+        let mut c = abi::CCommand::default();
+        let mut st = abi::CStatus::default();
+        let mut buf = ErrBuf::new();
+        // SAFETY: live instance, valid pointers for the call.
+        let code =
+            unsafe { (self.lib.vtable.step)(self.inst, now.0, &s, &mut c, &mut st, buf.raw()) };
+        if let Err(m) = self.check(code, &buf) {
+            self.fail("step", m);
+            return Command::OFF;
+        }
+        match self.command(&c) {
+            Ok(cmd) => {
+                self.status = ChipStatus {
+                    mode: match st.mode {
+                        1 => Mode::Aligning {
+                            step: 0,
+                            until: Ticks::NEVER,
+                        },
+                        2 => Mode::Running,
+                        3 => Mode::GaveUp,
+                        _ => Mode::Off,
+                    },
+                    state: st.state,
+                    flag: flag_of(&cmd.pattern).unwrap_or(OFF_FLAG),
+                    zd: st.zd != 0,
+                    zdf: st.zdf != 0,
+                    linear: st.linear != 0,
+                    duty: st.duty,
+                    speed_est_rpm: st.speed_est_rpm,
+                    current_ref_a: st.current_ref_a,
+                    restarts: st.restarts,
+                    crossings: st.crossings,
+                    forced_crossings: st.forced_crossings,
+                };
+                cmd
+            }
+            Err(m) => {
+                self.fail("step", m);
+                Command::OFF
+            }
+        }
+    }
+
+    fn fault(&self) -> Option<&str> {
+        self.fault.as_deref()
+    }
+}
+
+impl Strategy for PluginStrategy {
+    fn name(&self) -> &str {
+        &self.lib.name
+    }
+    fn status(&self) -> ChipStatus {
+        self.status
+    }
+    fn table(&self) -> Table {
+        self.table
+    }
+    fn set_start(&mut self, now: Ticks, level: bool) {
+        self.inputs.now = now.0;
+        self.inputs.start = level.into();
+        self.push_inputs();
+    }
+    fn set_reset(&mut self, level: bool) {
+        self.inputs.reset = level.into();
+        self.push_inputs();
+    }
+    fn set_speed_ref(&mut self, rpm: f64) {
+        if rpm.is_finite() {
+            self.inputs.speed_ref_rpm = rpm;
+            self.push_inputs();
+        }
+    }
+    fn speed_ref_rpm(&self) -> f64 {
+        self.inputs.speed_ref_rpm
+    }
+    fn try_clone(&self) -> Result<Box<dyn Strategy>, String> {
+        let mut buf = ErrBuf::new();
+        // SAFETY: live instance, valid buffer.
+        let inst = unsafe { (self.lib.vtable.clone)(self.inst, buf.raw()) };
+        if inst.is_null() {
+            return Err(format!(
+                "plugin `{}`: clone: {}",
+                self.lib.name,
+                buf.message()
+            ));
+        }
+        Ok(Box::new(PluginStrategy {
+            lib: self.lib.clone(),
+            inst,
+            clock: self.clock,
+            table: self.table,
+            status: self.status,
+            fault: self.fault.clone(),
+            inputs: self.inputs,
+            top: self.top,
+        }))
+    }
+}
