@@ -4,6 +4,8 @@ use bldc_drive::DriveConfig;
 use std::path::PathBuf;
 use std::process::{Command, Output};
 
+mod common;
+
 fn bench(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_drive-bench"))
         .args(args)
@@ -185,6 +187,10 @@ fn bad_flags_values_and_config_keys_are_named() {
         text(&out.stderr)
     );
 
+    let out = bench(&["--out", "somewhere", "list"]);
+    assert!(!out.status.success());
+    assert!(text(&out.stderr).contains("--out"), "{}", text(&out.stderr));
+
     let cfg = tmp("bad.toml");
     std::fs::write(&cfg, "[motor]\npoles = 12\nbogus_key = 1.0\n").unwrap();
     let out = bench(&[
@@ -269,4 +275,65 @@ fn the_quick_comparison_writes_the_report_folder() {
     assert_eq!(j["grid"].as_array().unwrap().len(), 7);
     let md = std::fs::read_to_string(dir.join("report.md")).unwrap();
     assert!(md.contains("## Metrics") && md.contains("commutation error"));
+}
+
+#[test]
+fn a_plugin_strategy_is_listed_and_runs_like_the_builtin_it_reimplements() {
+    let lib = common::plugins::example();
+    let lib = lib.to_str().unwrap();
+    let out = bench(&["--plugin", lib, "list"]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    assert!(
+        text(&out.stdout)
+            .lines()
+            .any(|l| l.starts_with("example-twelve-step-df\t"))
+    );
+
+    let (a, b) = (tmp("builtin.json"), tmp("plugin.json"));
+    let common = ["--speed-rpm", "2500", "--duration-s", "1.5", "--json"];
+    let out = bench(
+        &[
+            &["run", "--strategy", "twelve-step-df"][..],
+            &common,
+            &[a.to_str().unwrap()],
+        ]
+        .concat(),
+    );
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let out = bench(
+        &[
+            &[
+                "--plugin",
+                lib,
+                "run",
+                "--strategy",
+                "example-twelve-step-df",
+            ][..],
+            &common,
+            &[b.to_str().unwrap()],
+        ]
+        .concat(),
+    );
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let read = |p: &PathBuf| -> serde_json::Value {
+        serde_json::from_str(&std::fs::read_to_string(p).unwrap()).unwrap()
+    };
+    let (ja, jb) = (read(&a), read(&b));
+    assert_eq!(jb["strategy"], "example-twelve-step-df");
+    for k in [
+        "speed_mean_rpm",
+        "torque_ripple_nm",
+        "commutations",
+        "commutation_error_deg_max",
+    ] {
+        assert_eq!(ja[k], jb[k], "{k}");
+    }
+
+    let out = bench(&["--plugin", "/nonexistent/p.so", "list"]);
+    assert!(!out.status.success());
+    assert!(
+        text(&out.stderr).contains("/nonexistent/p.so"),
+        "{}",
+        text(&out.stderr)
+    );
 }

@@ -6,44 +6,11 @@ use bldc_drive::drive::{build_plugin, run_to};
 use bldc_drive::scenario::{Scenario, TraceRow, TraceSpec, run};
 use bldc_drive::strategies::{PluginError, PluginLibrary, StrategyName};
 use std::path::PathBuf;
-use std::process::Command;
-use std::sync::{Mutex, OnceLock};
+use std::sync::Mutex;
 
-/// Builds the plugin crates with the test profile (sharing the test build's artifacts)
-/// and returns the folder holding the libraries.
-fn plugin_dir() -> PathBuf {
-    static BUILT: OnceLock<PathBuf> = OnceLock::new();
-    BUILT
-        .get_or_init(|| {
-            let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
-            let st = Command::new(cargo)
-                .args([
-                    "build",
-                    "--profile",
-                    "test",
-                    "-p",
-                    "example-plugin",
-                    "-p",
-                    "misbehaving-plugin",
-                ])
-                .current_dir(env!("CARGO_MANIFEST_DIR"))
-                .status()
-                .expect("cargo runs");
-            assert!(st.success(), "building the plugin crates failed");
-            // Test binaries live in <target>/debug/deps; the libraries in <target>/debug.
-            let exe = std::env::current_exe().unwrap();
-            exe.parent().unwrap().parent().unwrap().to_path_buf()
-        })
-        .clone()
-}
+mod common;
 
-fn example() -> PathBuf {
-    plugin_dir().join("libexample_plugin.so")
-}
-
-fn misbehaving() -> PathBuf {
-    plugin_dir().join("libmisbehaving_plugin.so")
-}
+use common::plugins::{example, misbehaving};
 
 /// Serialises the tests that steer the misbehaving plugin through the environment.
 static ENV: Mutex<()> = Mutex::new(());

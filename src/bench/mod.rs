@@ -12,7 +12,7 @@ use crate::scenario::{RunError, Scenario, Summary, TraceRow, TraceSpec, run};
 use range::Range;
 use serde::Serialize;
 use std::time::Instant;
-use strategies::{StrategyName, StrategyParams};
+use strategies::{PluginLibrary, StrategyName, StrategyParams};
 
 /// One strategy setting under comparison.
 #[derive(Clone, Debug, Serialize)]
@@ -22,6 +22,9 @@ pub struct Variant {
     pub label: String,
     /// The `[strategy]` section used.
     pub strategy: StrategyParams,
+    /// The plugin that provides the strategy (None: the built-in chip).
+    #[serde(skip)]
+    pub plugin: Option<PluginLibrary>,
 }
 
 impl Variant {
@@ -43,7 +46,20 @@ impl Variant {
             Some(a) => format!("{name}@{a}"),
             None => name.to_string(),
         };
-        Variant { label, strategy }
+        Variant {
+            label,
+            strategy,
+            plugin: None,
+        }
+    }
+
+    /// A plugin strategy; the config's `[strategy]` section is passed to it unchanged.
+    pub fn plugin(base: &StrategyParams, plugin: PluginLibrary) -> Self {
+        Variant {
+            label: plugin.name().to_string(),
+            strategy: base.clone(),
+            plugin: Some(plugin),
+        }
     }
 }
 
@@ -208,6 +224,7 @@ pub fn compare(
         Ok::<Done, RunError>(match *job {
             Job::Grid(v, rpm) => {
                 let mut sc = Scenario::hold(config_of(v), rpm, plan.grid_duration_s);
+                sc.plugin = variants[v].plugin.clone();
                 let traced = rpm == plan.trace_rpm;
                 if traced {
                     // One electrical turn at this speed plus margin, at 0.5 µs.
@@ -231,12 +248,17 @@ pub fn compare(
                 });
                 Done::Grid(point, trace)
             }
-            Job::Range(v) => Done::Range(range::search(&config_of(v), &label(v))?),
+            Job::Range(v) => Done::Range(range::search(
+                &config_of(v),
+                variants[v].plugin.as_ref(),
+                &label(v),
+            )?),
             Job::Step(v, aw) => {
                 let (from, to, at, dur) = plan.step;
                 let mut c = config_of(v);
                 c.control.anti_windup = aw;
                 let mut sc = Scenario::hold(c, from, dur);
+                sc.plugin = variants[v].plugin.clone();
                 sc.speed_steps.push((at, to));
                 sc.speed_record_s = 0.5e-3;
                 let out = run(&sc, |_| {})?;
@@ -251,6 +273,7 @@ pub fn compare(
             Job::Load(v) => {
                 let (rpm, nm, at, dur) = plan.load;
                 let mut sc = Scenario::hold(config_of(v), rpm, dur);
+                sc.plugin = variants[v].plugin.clone();
                 sc.load_steps.push((at, nm));
                 sc.speed_record_s = 0.5e-3;
                 let out = run(&sc, |_| {})?;

@@ -7,6 +7,7 @@
 use crate::config::DriveConfig;
 use crate::scenario::{RunError, Scenario, Summary, run};
 use serde::Serialize;
+use strategies::PluginLibrary;
 
 /// The criterion, stated in every range result.
 pub const CRITERION: &str = "started from standstill with the command, after 3 s of simulated time: running closed loop, no restart, mean true speed over the last 1 s within 2 % of the command";
@@ -42,18 +43,27 @@ pub struct Range {
 }
 
 /// Whether `rpm` is controllable, with the run's summary.
-pub fn controllable(config: &DriveConfig, rpm: f64) -> Result<(bool, Summary), RunError> {
-    let sc = Scenario::hold(config.clone(), rpm, 3.0);
+pub fn controllable(
+    config: &DriveConfig,
+    plugin: Option<&PluginLibrary>,
+    rpm: f64,
+) -> Result<(bool, Summary), RunError> {
+    let mut sc = Scenario::hold(config.clone(), rpm, 3.0);
+    sc.plugin = plugin.cloned();
     let s = run(&sc, |_| {})?.summary;
     let ok = s.running && s.restarts == 0 && (s.speed_mean_rpm - rpm).abs() <= 0.02 * rpm;
     Ok((ok, s))
 }
 
-/// Searches the range of `config`'s strategy, labelled `label`.
-pub fn search(config: &DriveConfig, label: &str) -> Result<Range, RunError> {
+/// Searches the range of `config`'s strategy (or `plugin`'s), labelled `label`.
+pub fn search(
+    config: &DriveConfig,
+    plugin: Option<&PluginLibrary>,
+    label: &str,
+) -> Result<Range, RunError> {
     let mut tried = Vec::new();
     let mut test = |rpm: f64| -> Result<bool, RunError> {
-        let ok = controllable(config, rpm)?.0;
+        let ok = controllable(config, plugin, rpm)?.0;
         tried.push((rpm, ok));
         Ok(ok)
     };

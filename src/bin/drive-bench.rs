@@ -3,7 +3,7 @@
 use bldc_drive::DriveConfig;
 use bldc_drive::bench::{self, Plan, pool, range, report};
 use bldc_drive::scenario::{self, Scenario, TraceRow, TraceSpec};
-use bldc_drive::strategies::StrategyName;
+use bldc_drive::strategies::{PluginLibrary, StrategyName};
 use clap::{Args, Parser, Subcommand};
 use std::io::{BufWriter, IsTerminal, Write};
 use std::path::{Path, PathBuf};
@@ -11,19 +11,23 @@ use std::path::{Path, PathBuf};
 /// Compares sensorless commutation strategies on a simulated BLDC drive. Without a
 /// subcommand it runs the standard comparison and writes a report folder.
 #[derive(Parser)]
-#[command(name = "drive-bench", version, args_conflicts_with_subcommands = true)]
+#[command(name = "drive-bench", version)]
 struct Cli {
     #[command(subcommand)]
     cmd: Option<Cmd>,
+    /// Loads a strategy plugin (a shared library built against strategy-abi); its
+    /// strategy is listed, runnable by name, and added to the comparison. Repeatable.
+    #[arg(long, global = true)]
+    plugin: Vec<PathBuf>,
     #[command(flatten)]
     compare: CompareArgs,
 }
 
 #[derive(Args)]
 struct CompareArgs {
-    /// Report folder to write.
-    #[arg(long, default_value = "drive-bench-report")]
-    out: PathBuf,
+    /// Report folder to write [default: drive-bench-report].
+    #[arg(long)]
+    out: Option<PathBuf>,
     /// TOML config overriding the built-in motor, power stage, sensing and control.
     #[arg(long)]
     config: Option<PathBuf>,
@@ -43,7 +47,7 @@ enum Cmd {
     Range {
         /// Strategy name (see `drive-bench list`).
         #[arg(long)]
-        strategy: StrategyName,
+        strategy: String,
         /// TOML config.
         #[arg(long)]
         config: Option<PathBuf>,
@@ -62,7 +66,7 @@ enum Cmd {
 struct RunArgs {
     /// Strategy name (see `drive-bench list`).
     #[arg(long)]
-    strategy: StrategyName,
+    strategy: String,
     /// Speed command [rpm].
     #[arg(long)]
     speed_rpm: f64,
@@ -97,19 +101,66 @@ fn main() {
     }
 }
 
+/// A strategy chosen by name: built in, or from a loaded plugin.
+enum Chosen {
+    Builtin(StrategyName),
+    Plugin(PluginLibrary),
+}
+
+fn load_plugins(paths: &[PathBuf]) -> Result<Vec<PluginLibrary>, String> {
+    paths
+        .iter()
+        .map(|p| PluginLibrary::load(p).map_err(|e| e.to_string()))
+        .collect()
+}
+
+fn choose(name: &str, plugins: &[PluginLibrary]) -> Result<Chosen, String> {
+    if let Some(p) = plugins.iter().find(|p| p.name() == name) {
+        return Ok(Chosen::Plugin(p.clone()));
+    }
+    name.parse().map(Chosen::Builtin).map_err(|_| {
+        let mut known: Vec<String> = StrategyName::ALL.iter().map(|n| n.to_string()).collect();
+        known.extend(plugins.iter().map(|p| p.name().to_string()));
+        format!(
+            "unknown strategy `{name}` (rule: one of {})",
+            known.join(", ")
+        )
+    })
+}
+
+/// Applies the choice to `cfg`, returning the plugin if there is one.
+fn apply(chosen: Chosen, cfg: &mut DriveConfig) -> Option<PluginLibrary> {
+    match chosen {
+        Chosen::Builtin(n) => {
+            cfg.strategy.name = n;
+            None
+        }
+        Chosen::Plugin(p) => Some(p),
+    }
+}
+
 fn run(cli: Cli) -> Result<(), String> {
+    let c = &cli.compare;
+    if cli.cmd.is_some()
+        && (c.out.is_some() || c.config.is_some() || c.threads.is_some() || c.quick)
+    {
+        return Err(
+            "--out, --config, --threads and --quick before a subcommand belong to the comparison (rule: give a subcommand's own options after its name)".into(),
+        );
+    }
+    let plugins = load_plugins(&cli.plugin)?;
     match cli.cmd {
-        None => compare(cli.compare),
-        Some(Cmd::Run(a)) => run_one(a),
+        None => compare(cli.compare, plugins),
+        Some(Cmd::Run(a)) => run_one(a, &plugins),
         Some(Cmd::Range {
             strategy,
             config,
             json,
         }) => {
             let mut cfg = load_config(config.as_deref())?;
-            cfg.strategy.name = strategy;
+            let plugin = apply(choose(&strategy, &plugins)?, &mut cfg);
             cfg.validate().map_err(|e| e.to_string())?;
-            let r = range::search(&cfg, strategy.as_str()).map_err(|e| e.to_string())?;
+            let r = range::search(&cfg, plugin.as_ref(), &strategy).map_err(|e| e.to_string())?;
             println!(
                 "{}: min {} rpm, max {} rpm ({} runs)\ncriterion: {}",
                 r.strategy,
@@ -133,6 +184,14 @@ fn run(cli: Cli) -> Result<(), String> {
             for n in StrategyName::ALL {
                 println!("{n}");
             }
+            for p in &plugins {
+                println!(
+                    "{}\t(plugin {}: {})",
+                    p.name(),
+                    p.path().display(),
+                    p.description()
+                );
+            }
             Ok(())
         }
         Some(Cmd::Config) => {
@@ -142,7 +201,7 @@ fn run(cli: Cli) -> Result<(), String> {
     }
 }
 
-fn compare(a: CompareArgs) -> Result<(), String> {
+fn compare(a: CompareArgs, plugins: Vec<PluginLibrary>) -> Result<(), String> {
     let cfg = load_config(a.config.as_deref())?;
     let mut plan = Plan::default();
     if a.quick {
@@ -150,7 +209,12 @@ fn compare(a: CompareArgs) -> Result<(), String> {
         plan.ranges = false;
     }
     let threads = a.threads.map_or_else(pool::default_threads, usize::from);
-    let variants = bench::standard_variants(&cfg.strategy);
+    let mut variants = bench::standard_variants(&cfg.strategy);
+    variants.extend(
+        plugins
+            .into_iter()
+            .map(|p| bench::Variant::plugin(&cfg.strategy, p)),
+    );
     let cmp = bench::compare(
         &cfg,
         variants,
@@ -160,23 +224,25 @@ fn compare(a: CompareArgs) -> Result<(), String> {
     )
     .map_err(|e| e.to_string())?;
     print!("{}", report::terminal_table(&cmp));
-    let files = report::write_folder(&cmp, &cfg, &a.out)
-        .map_err(|e| format!("writing the report to {}: {e}", a.out.display()))?;
+    let out = a.out.unwrap_or_else(|| PathBuf::from("drive-bench-report"));
+    let files = report::write_folder(&cmp, &cfg, &out)
+        .map_err(|e| format!("writing the report to {}: {e}", out.display()))?;
     println!(
         "report: {} ({} files)",
-        a.out.join("report.md").display(),
+        out.join("report.md").display(),
         files.len()
     );
     Ok(())
 }
 
-fn run_one(a: RunArgs) -> Result<(), String> {
+fn run_one(a: RunArgs, plugins: &[PluginLibrary]) -> Result<(), String> {
     let mut cfg = load_config(a.config.as_deref())?;
-    cfg.strategy.name = a.strategy;
+    let plugin = apply(choose(&a.strategy, plugins)?, &mut cfg);
     if let Some(seed) = a.seed {
         cfg.sensing.seed = seed;
     }
     let mut sc = Scenario::hold(cfg, a.speed_rpm, a.duration_s);
+    sc.plugin = plugin;
     if a.load_nm != 0.0 || !a.load_nm.is_finite() {
         sc.load_steps.push((0.0, a.load_nm));
     }

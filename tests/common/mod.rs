@@ -7,6 +7,8 @@ use bldc_drive::drive_core::{
 };
 use bldc_drive::plants::{BldcPlant, PlantParams};
 
+pub mod plugins;
+
 /// An engine with the chip's high-side chopping and the default 12.5 kHz carrier.
 pub fn engine<C: Controller>(
     params: PlantParams,

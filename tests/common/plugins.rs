@@ -1,0 +1,43 @@
+//! The plugin crates of the workspace, built on demand for the tests that load them.
+
+use std::path::PathBuf;
+use std::process::Command;
+use std::sync::OnceLock;
+
+/// Builds the plugin crates with the test profile (sharing the test build's artifacts)
+/// and returns the folder holding the libraries.
+pub fn plugin_dir() -> PathBuf {
+    static BUILT: OnceLock<PathBuf> = OnceLock::new();
+    BUILT
+        .get_or_init(|| {
+            let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+            let st = Command::new(cargo)
+                .args([
+                    "build",
+                    "--profile",
+                    "test",
+                    "-p",
+                    "example-plugin",
+                    "-p",
+                    "misbehaving-plugin",
+                ])
+                .current_dir(env!("CARGO_MANIFEST_DIR"))
+                .status()
+                .expect("cargo runs");
+            assert!(st.success(), "building the plugin crates failed");
+            // Test binaries live in <target>/debug/deps; the libraries in <target>/debug.
+            let exe = std::env::current_exe().unwrap();
+            exe.parent().unwrap().parent().unwrap().to_path_buf()
+        })
+        .clone()
+}
+
+/// The example plugin (`example-twelve-step-df`).
+pub fn example() -> PathBuf {
+    plugin_dir().join("libexample_plugin.so")
+}
+
+/// The misbehaving test fixture.
+pub fn misbehaving() -> PathBuf {
+    plugin_dir().join("libmisbehaving_plugin.so")
+}
