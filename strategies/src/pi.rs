@@ -4,7 +4,7 @@
 //!
 //! ```text
 //! uc(k) = Kp·e(k) + ui(k−1) + Ki·e(k)                     (pre-saturation command)
-//! ui(k) = sat(ui(k−1) + Ki·e(k) − k_s·(uc(k) − sat(uc(k))))  (k_s = 0 without anti-windup)
+//! ui(k) = sat(ui(k−1) + Ki·e(k) − k_s·max(uc(k) − hi, 0))  (k_s = 0 without anti-windup)
 //! u(k)  = sat(uc(k))
 //! ```
 //!
@@ -12,6 +12,11 @@
 //! anti-windup the integrator runs up to its own limit while the output is saturated and
 //! must be unwound by an error of the other sign; with it, any excess over the limit is
 //! fed back k_s-fold, which pulls the integrator out of saturation within one update.
+//!
+//! The back-calculation acts on the upper limit only (SPEC §6: "when uc exceeds the
+//! limit", the chip's 4 096 000). Mirrored at the lower limit, a k_s ≫ 1 turns a large
+//! negative proportional term (one high current sample) into a k_s-fold *positive* kick
+//! that flings the integrator to full duty; there the integrator clamp alone suffices.
 
 /// Gains, limits and anti-windup of one PI.
 #[derive(Copy, Clone, Debug, PartialEq)]
@@ -53,7 +58,8 @@ impl Pi {
         let integ = self.ui + g.ki * e;
         let uc = g.kp * e + integ;
         let out = uc.clamp(g.lo, g.hi);
-        self.ui = (integ - g.k_s * (uc - out)).clamp(g.lo, g.hi);
+        let excess = (uc - g.hi).max(0.0);
+        self.ui = (integ - g.k_s * excess).clamp(g.lo, g.hi);
         self.out = out;
         out
     }
@@ -141,5 +147,14 @@ mod tests {
         let mut p = Pi::new(g(2.0), 5.0);
         assert_eq!(p.update(3.0), 10.0);
         assert_eq!(p.integrator(), 6.0);
+    }
+
+    #[test]
+    fn anti_windup_does_not_kick_the_integrator_up_at_the_lower_limit() {
+        // ui = 2, e = −3: integ = 0.5 (Ki 0.5), uc = −5.5 → output 0. Mirrored back-calculation
+        // would add 32·5.5 and fling ui to the top (10); the chip's acts on the upper limit only.
+        let mut p = Pi::new(gains(32.0), 2.0);
+        assert_eq!(p.update(-3.0), 0.0);
+        assert_eq!(p.integrator(), 0.5);
     }
 }
