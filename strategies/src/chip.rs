@@ -68,9 +68,11 @@ pub struct ChipStatus {
     pub state: u8,
     /// Bridge flag of the pattern in force.
     pub flag: u8,
-    /// Raw Z_d (selected comparator) at the last tick.
+    /// Raw Z_d (selected comparator) at the chip's last tick. In the post part the chip
+    /// does not watch the comparators (nothing is detected there), so this holds the level
+    /// seen at the crossing until the next tick.
     pub zd: bool,
-    /// Z_d after the guard's filter (equal to `zd` without one).
+    /// Z_d after the guard's filter (equal to `zd` without one), same instant as `zd`.
     pub zdf: bool,
     /// Inside a linear region (PWM stopped).
     pub linear: bool,
