@@ -196,6 +196,17 @@ pub fn disturbance(samples: &[(f64, f64)], t_step: f64, reference: f64) -> Distu
     Disturbance { dip, recovery_s }
 }
 
+/// How long after `t_step` a signal still reaches `level` or more: the time of the last
+/// sample at or above it, minus `t_step` (0 if none). Used for the time the voltage
+/// command stays at full scale after the speed command drops (anti-windup).
+pub fn held_above(samples: &[(f64, f64)], t_step: f64, level: f64) -> f64 {
+    samples
+        .iter()
+        .filter(|p| p.0 > t_step && p.1 >= level)
+        .map(|p| p.0 - t_step)
+        .fold(0.0, f64::max)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -303,6 +314,21 @@ mod tests {
         );
         let stuck: Vec<(f64, f64)> = (0..10).map(|k| (k as f64, 900.0)).collect();
         assert_eq!(disturbance(&stuck, 0.0, 1000.0).recovery_s, None);
+    }
+
+    #[test]
+    fn held_above_finds_the_last_sample_at_the_level() {
+        // Full scale until 1.08 s, a dip, full scale once more at 1.1 s, then lower.
+        let s = [
+            (0.9, 1.0),
+            (1.0, 1.0),
+            (1.08, 0.96),
+            (1.09, 0.5),
+            (1.1, 0.95),
+            (1.2, 0.3),
+        ];
+        assert!((held_above(&s, 1.0, 0.95) - 0.1).abs() < 1e-12);
+        assert_eq!(held_above(&s, 1.15, 0.95), 0.0);
     }
 
     #[test]

@@ -265,6 +265,8 @@ pub struct Outcome {
     pub summary: Summary,
     /// True speed every `speed_record_s`: (t [s], rpm).
     pub speed: Vec<(f64, f64)>,
+    /// Duty (voltage command / carrier top) at the same instants: (t [s], 0..1).
+    pub duty: Vec<(f64, f64)>,
 }
 
 /// Why a scenario could not run.
@@ -303,6 +305,8 @@ pub fn run(sc: &Scenario, mut on_row: impl FnMut(&TraceRow)) -> Result<Outcome, 
     let mut i_sq = TimeStats::default();
     let mut angles = AngleErrors::default();
     let mut record = Vec::with_capacity((sc.duration_s / sc.speed_record_s) as usize + 2);
+    let mut duty = Vec::with_capacity(record.capacity());
+    let top = f64::from(eng.carrier().top);
     let mut next_record = 0.0;
     let mut last_state = 0u8;
     let mut last_row: Option<Ticks> = None;
@@ -326,11 +330,12 @@ pub fn run(sc: &Scenario, mut on_row: impl FnMut(&TraceRow)) -> Result<Outcome, 
             }
             let o = e.plant.observe();
             let t = o.t_s;
+            let s = e.controller.status();
             if t >= next_record {
                 record.push((t, o.speed_rpm));
+                duty.push((t, f64::from(s.duty) / top));
                 next_record = t + sc.speed_record_s;
             }
-            let s = e.controller.status();
             if t >= steady_from {
                 speed.push(t, o.speed_rpm);
                 torque.push(t, o.torque_nm);
@@ -386,6 +391,7 @@ pub fn run(sc: &Scenario, mut on_row: impl FnMut(&TraceRow)) -> Result<Outcome, 
             },
         },
         speed: record,
+        duty,
     })
 }
 

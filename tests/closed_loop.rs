@@ -10,63 +10,120 @@ use bldc_drive::strategies::{Mode, StrategyName};
 struct Run {
     /// (t [s], true mechanical speed [rpm]) at every engine stop.
     speed: Vec<(f64, f64)>,
+    /// (t [s], voltage command in force [carrier counts]) at every engine stop.
+    duty: Vec<(f64, u32)>,
+    /// (t [s], current-PI integrator [carrier counts]) at every engine stop.
+    integrator: Vec<(f64, f64)>,
     /// Signed error of the true electrical angle at each commutation after `settle_s`
     /// against the boundary of the state entered [electrical degrees].
     angle_err: Vec<f64>,
+    /// Time spent after `settle_s` in 3-phase (odd) and 2-phase (even) states [s].
+    post_pre_s: (f64, f64),
     restarts: u32,
+    forced: u64,
     mode: Mode,
+}
+
+/// Something that happens during a run at a given time [s].
+#[derive(Copy, Clone)]
+enum Event {
+    /// Load torque [N·m] from then on.
+    Load(f64),
+    /// Speed command [rpm] from then on.
+    SpeedRef(f64),
+    /// Twelve-step conduction angle [electrical degrees] from then on.
+    Conduction(f64),
 }
 
 fn run(name: StrategyName, rpm: f64, secs: f64, load: Option<(f64, f64)>, settle_s: f64) -> Run {
     let mut cfg = DriveConfig::default();
     cfg.strategy.name = name;
-    run_config(cfg, rpm, secs, load, settle_s)
+    let events: Vec<(f64, Event)> = load
+        .map(|(t, nm)| (t, Event::Load(nm)))
+        .into_iter()
+        .collect();
+    run_events(cfg, rpm, secs, &events, settle_s)
 }
 
 fn run_config(
-    mut cfg: DriveConfig,
+    cfg: DriveConfig,
     rpm: f64,
     secs: f64,
     load: Option<(f64, f64)>,
     settle_s: f64,
 ) -> Run {
+    let events: Vec<(f64, Event)> = load
+        .map(|(t, nm)| (t, Event::Load(nm)))
+        .into_iter()
+        .collect();
+    run_events(cfg, rpm, secs, &events, settle_s)
+}
+
+fn run_events(
+    mut cfg: DriveConfig,
+    rpm: f64,
+    secs: f64,
+    events: &[(f64, Event)],
+    settle_s: f64,
+) -> Run {
     cfg.control.speed_ref_rpm = rpm;
-    let mut eng = build(&cfg).expect("default config is valid");
-    let table = eng.controller.table();
+    let mut eng = build(&cfg).expect("config is valid");
     let mut out = Run {
         speed: Vec::new(),
+        duty: Vec::new(),
+        integrator: Vec::new(),
         angle_err: Vec::new(),
+        post_pre_s: (0.0, 0.0),
         restarts: 0,
+        forced: 0,
         mode: Mode::Off,
     };
     let mut last_state = 0u8;
-    let mut t_load = load;
+    let mut last_t = 0.0;
+    let mut pending: Vec<(f64, Event)> = events.to_vec();
     let mut t = 0.0;
     while t < secs {
         let next = (t + 0.05).min(secs);
-        if let Some((at, nm)) = t_load
+        while let Some(&(at, ev)) = pending.first()
             && next > at
         {
             run_to(&mut eng, at, |_, _| {}).unwrap();
-            eng.plant.set_load_torque(nm);
-            t_load = None;
+            match ev {
+                Event::Load(nm) => eng.plant.set_load_torque(nm),
+                Event::SpeedRef(r) => eng.controller.set_speed_ref(r),
+                Event::Conduction(a) => eng.controller.set_conduction_angle(a).unwrap(),
+            }
+            pending.remove(0);
         }
         run_to(&mut eng, next, |e, _| {
             let o = e.plant.observe();
             out.speed.push((o.t_s, o.speed_rpm));
             let s = e.controller.status();
+            let table = e.controller.table();
+            out.duty.push((o.t_s, s.duty));
+            out.integrator.push((o.t_s, s.current_integrator));
+            if o.t_s > settle_s && last_state != 0 {
+                let dt = o.t_s - last_t;
+                if last_state % 2 == 1 {
+                    out.post_pre_s.0 += dt;
+                } else {
+                    out.post_pre_s.1 += dt;
+                }
+            }
             if s.state != last_state && s.state != 0 && last_state != 0 && o.t_s > settle_s {
                 let th = o.theta_e.to_degrees();
                 let err = (th - table.state_start_deg(s.state) + 540.0).rem_euclid(360.0) - 180.0;
                 out.angle_err.push(err);
             }
             last_state = s.state;
+            last_t = o.t_s;
         })
         .unwrap();
         t = next;
     }
     let s = eng.controller.status();
     out.restarts = s.restarts;
+    out.forced = s.forced_crossings;
     out.mode = s.mode;
     out
 }
@@ -86,22 +143,70 @@ fn mean_speed(r: &Run, a: f64, b: f64) -> f64 {
     acc / w
 }
 
+/// From standstill every guarded strategy aligns, hands over, locks and holds the command
+/// within 2 % (mean over the last second). ND only above its floor (see
+/// `nd_linear_region_sets_a_floor_on_the_speed`). LM's first hand-over fails (its 1°
+/// window at unknown speed leaves detection unguarded, and a late crossing extends the
+/// full-voltage region into a stall-current pulse); the automatic restart then starts it.
+/// LM at 3000 rpm stays locked but wanders ±8 % over ≈ 1 s: its window grows 1° per 500 rpm
+/// (positive feedback of speed on voltage, in whole-degree steps), and the one current sample
+/// per PI update sometimes falls in the full-voltage window; so it is not listed here.
 #[test]
-fn df_guarded_strategies_start_lock_and_hold_the_commanded_speed() {
-    for (name, rpm) in [
-        (StrategyName::TwelveStepDf, 2000.0),
-        (StrategyName::TwelveStepDf, 6000.0),
-        (StrategyName::SixStep120, 3000.0),
+fn every_guarded_strategy_starts_locks_and_holds_the_commanded_speed() {
+    for (name, rpm, restarts) in [
+        (StrategyName::TwelveStepDf, 2000.0, 0),
+        (StrategyName::TwelveStepDf, 6000.0, 0),
+        (StrategyName::TwelveStepRaw, 3000.0, 0),
+        (StrategyName::TwelveStepNd, 6000.0, 0),
+        (StrategyName::TwelveStepNd, 8000.0, 0),
+        (StrategyName::TwelveStepLm, 2000.0, 1),
+        (StrategyName::TwelveStepLm, 6000.0, 1),
+        (StrategyName::SixStep120, 3000.0, 0),
     ] {
         let r = run(name, rpm, 4.0, None, 3.0);
         assert_eq!(r.mode, Mode::Running, "{name} {rpm} rpm");
-        assert_eq!(r.restarts, 0, "{name} {rpm} rpm");
+        assert!(
+            r.restarts <= restarts,
+            "{name} {rpm} rpm: {} restarts",
+            r.restarts
+        );
         let m = mean_speed(&r, 3.0, 4.0);
+        println!("{name} {rpm} rpm: mean {m:.0} rpm, {} restarts", r.restarts);
         assert!(
             (m - rpm).abs() < 0.02 * rpm,
             "{name} {rpm} rpm: mean {m:.0}"
         );
     }
+}
+
+/// SPEC §5: ND applies full voltage for 15° of every 60°, which floors the average voltage.
+/// On this motor the floor alone drives it to ≈ 4700 rpm: commanded below that, the speed
+/// PI asks for no current, the PWM duty sits at 0, and the speed is the same whatever the
+/// command — but the drive stays locked (commutations on the boundaries, no restart).
+/// DF holds the same commands (previous test), so the floor is ND's.
+#[test]
+fn nd_linear_region_sets_a_floor_on_the_speed() {
+    let mut floor = Vec::new();
+    for rpm in [2000.0, 3000.0] {
+        let r = run(StrategyName::TwelveStepNd, rpm, 4.0, None, 3.0);
+        assert_eq!((r.mode, r.restarts), (Mode::Running, 0), "{rpm}");
+        let m = mean_speed(&r, 3.0, 4.0);
+        let cv_max = r
+            .duty
+            .iter()
+            .filter(|d| d.0 > 3.0 && d.1 < 2000)
+            .map(|d| d.1)
+            .max();
+        println!(
+            "nd commanded {rpm}: runs at {m:.0} rpm, PWM duty outside the window ≤ {cv_max:?}"
+        );
+        assert!(m > 1.3 * 3000.0, "{rpm}: {m:.0}");
+        assert!(cv_max.unwrap_or(0) < 100, "{rpm}: duty {cv_max:?}");
+        let mean_abs = r.angle_err.iter().map(|e| e.abs()).sum::<f64>() / r.angle_err.len() as f64;
+        assert!(mean_abs < 2.0, "{rpm}: {mean_abs:.2}°");
+        floor.push(m);
+    }
+    assert!((floor[0] - floor[1]).abs() < 0.01 * floor[1], "{floor:?}");
 }
 
 #[test]
@@ -143,22 +248,207 @@ fn a_load_step_is_rejected() {
 
 #[test]
 fn commutations_fall_on_the_table_boundaries() {
-    let r = run(StrategyName::TwelveStepDf, 3000.0, 4.0, None, 3.0);
-    angle_stats("twelve-step-df", &r);
-    let r = run(StrategyName::SixStep120, 3000.0, 4.0, None, 3.0);
-    angle_stats("six-step-120", &r);
+    for (name, rpm) in [
+        (StrategyName::TwelveStepDf, 3000.0),
+        (StrategyName::TwelveStepRaw, 3000.0),
+        (StrategyName::TwelveStepLm, 3000.0),
+        (StrategyName::SixStep120, 3000.0),
+        (StrategyName::TwelveStepNd, 6000.0),
+    ] {
+        let r = run(name, rpm, 4.0, None, 3.0);
+        angle_stats(&format!("{name} {rpm} rpm"), &r, rpm);
+    }
 }
 
-fn angle_stats(name: &str, r: &Run) {
-    let n = r.angle_err.len() as f64;
-    let mean = r.angle_err.iter().sum::<f64>() / n;
-    let mean_abs = r.angle_err.iter().map(|e| e.abs()).sum::<f64>() / n;
-    let max = r.angle_err.iter().fold(0.0f64, |m, e| m.max(e.abs()));
+/// Without a guard the comparator's PWM-edge glitches reach the phase shifter. At 1500 rpm
+/// (duty ≈ 15 %, small back-EMF, long 60° intervals) a glitch late in the pre part passes
+/// the ¾·t_60 plausibility test and is taken as the crossing: raw commutates up to ≈ 20°
+/// early (two thirds of a state). The digital filter removes most of them (glitches from
+/// the default 5 % comparator RC mismatch are ≈ 3 µs, the filter's window 1.92 µs, so a few
+/// still pass): its worst error stays near 10°. Both stay locked (plausibility), so the
+/// damage is mis-commutation, not restarts. Default plant parameters throughout.
+#[test]
+fn raw_guard_mis_commutates_at_low_speed_where_df_does_not() {
+    let raw = run(StrategyName::TwelveStepRaw, 1500.0, 3.5, None, 2.5);
+    let df = run(StrategyName::TwelveStepDf, 1500.0, 3.5, None, 2.5);
+    let bad = |r: &Run| r.angle_err.iter().filter(|e| e.abs() > 15.0).count();
+    let (sr, sd) = (stats(&raw.angle_err), stats(&df.angle_err));
     println!(
-        "{name} 3000 rpm: {n} commutations, error mean {mean:+.2}°, mean |e| {mean_abs:.2}°, max |e| {max:.2}°"
+        "1500 rpm raw: mean {:+.2}°, mean |e| {:.2}°, max {:.1}°, {} of {} beyond 15°",
+        sr.0,
+        sr.1,
+        sr.2,
+        bad(&raw),
+        raw.angle_err.len()
     );
-    // One second at 3000 rpm is 300 electrical turns, 6 or 12 commutations each.
-    assert!(n > 1700.0, "{name}: {n}");
+    println!(
+        "1500 rpm df:  mean {:+.2}°, mean |e| {:.2}°, max {:.1}°, {} of {} beyond 15°",
+        sd.0,
+        sd.1,
+        sd.2,
+        bad(&df),
+        df.angle_err.len()
+    );
+    assert_eq!(df.restarts, 0);
+    assert_eq!(bad(&df), 0, "df mis-commutated");
+    assert!(
+        bad(&raw) >= 10,
+        "raw: {} commutations beyond 15°",
+        bad(&raw)
+    );
+    assert!(
+        sr.1 > 1.2 * sd.1,
+        "raw mean |e| {:.2} vs df {:.2}",
+        sr.1,
+        sd.1
+    );
+    assert!(
+        sr.2 > 15.0 && sd.2 < 15.0,
+        "max raw {:.1} df {:.1}",
+        sr.2,
+        sd.2
+    );
+}
+
+/// Conduction angles other than 150°. The drive starts at 150° and at 2 s moves to 135° or
+/// 165° in closed loop (the source's future work: a variable conduction angle). It holds
+/// 3000 rpm, commutates on the shifted boundaries, and the 3-phase (post) states fill
+/// (α − 120)/60 of the time: 1/4 at 135°, 3/4 at 165° (state times from the true timeline).
+///
+/// From standstill only angles up to 150° start: above it the first post part, timed from
+/// the hand-over's assumed 60° (15 ms), outlasts the slow rotor's next crossing, which then
+/// cannot be detected, and step-miss restarts follow (see the README's status).
+#[test]
+fn conduction_angle_135_and_165_hold_speed_on_their_boundaries() {
+    for angle in [135.0, 165.0] {
+        let r = run_events(
+            DriveConfig::default(),
+            3000.0,
+            4.0,
+            &[(2.0, Event::Conduction(angle))],
+            3.0,
+        );
+        assert_eq!((r.mode, r.restarts), (Mode::Running, 0), "{angle}");
+        let m = mean_speed(&r, 3.0, 4.0);
+        let (post, pre) = r.post_pre_s;
+        let frac = post / (post + pre);
+        println!("{angle}°: mean {m:.0} rpm, 3-phase fraction {frac:.3}");
+        assert!((m - 3000.0).abs() < 60.0, "{angle}: mean {m:.0}");
+        let want = (angle - 120.0) / 60.0;
+        // A commutation late or early by the mean |error| (≈ 1–2°) moves the split by e/60.
+        assert!((frac - want).abs() < 0.04, "{angle}: {frac:.3} vs {want}");
+        angle_stats(&format!("twelve-step-df {angle}°"), &r, 3000.0);
+    }
+}
+
+/// The default speed gains give a damped response to a small step (no saturation):
+/// 3000 → 3300 rpm at 2.5 s. A second-order loop with ζ ≥ 0.35 overshoots at most 31 %;
+/// allowing for the ±20 rpm speed ripple (7 % of the step) the peak must stay below 35 % of
+/// the step, and the mean of the last second within 1 % of the new command.
+/// Measured: peak 3372 rpm (24 %, 50 ms means), settled in ≈ 0.8 s.
+#[test]
+fn a_small_speed_step_is_well_damped() {
+    let r = run_events(
+        DriveConfig::default(),
+        3000.0,
+        4.5,
+        &[(2.5, Event::SpeedRef(3300.0))],
+        9.0,
+    );
+    assert_eq!((r.mode, r.restarts), (Mode::Running, 0));
+    let before = mean_speed(&r, 2.0, 2.5);
+    // Peak of the 50 ms means, so the per-commutation ripple does not count.
+    let peak = (50..80)
+        .map(|k| mean_speed(&r, k as f64 * 0.05, (k + 1) as f64 * 0.05))
+        .fold(0.0, f64::max);
+    let after = mean_speed(&r, 3.5, 4.5);
+    let overshoot = (peak - 3300.0) / 300.0;
+    println!(
+        "step 3000 → 3300: before {before:.0}, peak {peak:.0} ({:.0} %), after {after:.0}",
+        overshoot * 100.0
+    );
+    assert!((before - 3000.0).abs() < 60.0, "{before:.0}");
+    assert!(peak > 3300.0, "it must get there: {peak:.0}");
+    assert!(overshoot < 0.35, "peak {peak:.0}");
+    assert!((after - 3300.0).abs() < 33.0, "{after:.0}");
+}
+
+/// The current PI's back-calculation anti-windup (SPEC §6), on and off. A command beyond
+/// reach (16 000 rpm; the drive tops out near 13 000) holds the voltage command at full
+/// scale for seconds; at 3.5 s the command drops to 8000 rpm.
+///
+/// Expected from the structure alone: with anti-windup the integrator never exceeds the
+/// limit (it is pulled to limit − Kp·e), so the output leaves full scale as soon as the
+/// speed PI drops the current command: within two 5.24 ms PI updates. Without it the
+/// integrator winds up to its 23-bit register (≈ 2.05× full scale = 4096 counts) and must be
+/// integrated back below 1900 at no more than Ki·0.5 A = 300 counts per update (the sense
+/// clips at 0.5 A), plus one proportional step of ≤ 150: at least 7 updates, 36 ms.
+/// The cost of the chip's k_s = 32 shows too: the noisy one-sample current error makes the
+/// back-calculation knock the integrator below the limit, so the top speed is lower.
+#[test]
+fn anti_windup_releases_the_saturated_current_loop_at_once() {
+    let mut release = Vec::new();
+    let mut wound = Vec::new();
+    for aw in [true, false] {
+        let mut cfg = DriveConfig::default();
+        cfg.control.anti_windup = aw;
+        let r = run_events(cfg, 16_000.0, 4.5, &[(3.5, Event::SpeedRef(8000.0))], 9.0);
+        assert_eq!((r.mode, r.restarts), (Mode::Running, 0), "aw {aw}");
+        let integrator_max = r
+            .integrator
+            .iter()
+            .filter(|d| d.0 > 2.5 && d.0 < 3.5)
+            .map(|d| d.1)
+            .fold(0.0, f64::max);
+        // First PI update after the step whose output is off full scale, and from when on the
+        // duty stays below 95 % of it.
+        let left = r
+            .duty
+            .iter()
+            .rev()
+            .take_while(|d| d.0 > 3.5)
+            .filter(|d| d.1 >= 1900)
+            .map(|d| d.0 - 3.5)
+            .fold(0.0, f64::max);
+        let top = r
+            .speed
+            .iter()
+            .filter(|p| p.0 < 3.5)
+            .map(|p| p.1)
+            .fold(0.0, f64::max);
+        println!(
+            "anti-windup {aw}: top speed {top:.0} rpm, integrator up to {integrator_max:.0} counts, duty ≥ 95 % until {:.1} ms after the step",
+            left * 1e3
+        );
+        release.push(left);
+        wound.push(integrator_max);
+    }
+    assert!(release[0] < 0.0106, "with anti-windup: {:.4} s", release[0]);
+    assert!(
+        release[1] > 0.036,
+        "without anti-windup: {:.4} s",
+        release[1]
+    );
+    assert!(wound[0] <= 2000.0 && wound[1] > 4000.0, "{wound:?}");
+}
+
+fn stats(e: &[f64]) -> (f64, f64, f64) {
+    let n = e.len() as f64;
+    let mean = e.iter().sum::<f64>() / n;
+    let mean_abs = e.iter().map(|e| e.abs()).sum::<f64>() / n;
+    let max = e.iter().fold(0.0f64, |m, e| m.max(e.abs()));
+    (mean, mean_abs, max)
+}
+
+fn angle_stats(name: &str, r: &Run, rpm: f64) {
+    let n = r.angle_err.len() as f64;
+    let (mean, mean_abs, max) = stats(&r.angle_err);
+    println!(
+        "{name}: {n} commutations, error mean {mean:+.2}°, mean |e| {mean_abs:.2}°, max |e| {max:.2}°"
+    );
+    // One second is rpm/10 electrical turns, 6 (six-step) or 12 commutations each; allow
+    // 10 % for the speed error and the edges of the window.
+    assert!(n > 0.9 * 6.0 * rpm / 10.0, "{name}: {n}");
     assert!(mean_abs < 3.0, "{name}: mean |error| {mean_abs:.2}°");
     assert!(max < 15.0, "{name}: max |error| {max:.2}°");
 }

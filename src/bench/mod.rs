@@ -7,7 +7,7 @@ pub mod report;
 pub mod svg;
 
 use crate::config::DriveConfig;
-use crate::metrics::{Disturbance, StepResponse, disturbance, step_response};
+use crate::metrics::{Disturbance, StepResponse, disturbance, held_above, step_response};
 use crate::scenario::{RunError, Scenario, Summary, TraceRow, TraceSpec, run};
 use range::Range;
 use serde::Serialize;
@@ -85,8 +85,8 @@ pub struct Plan {
     pub grid_duration_s: f64,
     /// Grid speed whose run also records the crossing trace [rpm].
     pub trace_rpm: f64,
-    /// Speed step: from, to [rpm], at [s], run length [s].
-    pub step: (f64, f64, f64, f64),
+    /// Speed step out of saturation (what anti-windup is for).
+    pub step: StepPlan,
     /// Load step: speed [rpm], torque [N·m], at [s], run length [s].
     pub load: (f64, f64, f64, f64),
     /// Whether to search each strategy's speed range.
@@ -99,11 +99,38 @@ impl Default for Plan {
             grid_rpm: vec![1000.0, 2000.0, 3000.0, 4500.0, 6000.0, 9000.0],
             grid_duration_s: 3.0,
             trace_rpm: 3000.0,
-            step: (2000.0, 8000.0, 2.0, 4.0),
+            step: StepPlan {
+                start_rpm: 3000.0,
+                beyond_rpm: 16000.0,
+                beyond_at_s: 1.5,
+                to_rpm: 8000.0,
+                at_s: 3.5,
+                duration_s: 4.5,
+            },
             load: (3000.0, 4e-4, 2.5, 4.0),
             ranges: true,
         }
     }
+}
+
+/// A speed step that starts from a saturated current loop: the drive runs at
+/// `start_rpm`, is commanded `beyond_rpm` (beyond its reach, so the voltage command sits
+/// at full scale and an unprotected integrator winds up) at `beyond_at_s`, and at `at_s`
+/// the command steps down to `to_rpm`. The response is measured from that step.
+#[derive(Copy, Clone, Debug, Serialize)]
+pub struct StepPlan {
+    /// Command from t = 0 [rpm].
+    pub start_rpm: f64,
+    /// Command beyond reach [rpm].
+    pub beyond_rpm: f64,
+    /// When it is given [s].
+    pub beyond_at_s: f64,
+    /// Command of the measured step [rpm].
+    pub to_rpm: f64,
+    /// When [s].
+    pub at_s: f64,
+    /// Run length [s].
+    pub duration_s: f64,
 }
 
 /// A steady-state grid point.
@@ -122,6 +149,11 @@ pub struct StepRun {
     pub variant: String,
     /// Anti-windup on the current PI.
     pub anti_windup: bool,
+    /// True speed when the step was given [rpm].
+    pub from_rpm: f64,
+    /// How long after the step the duty still reached 95 % [s] (the wound-up current
+    /// loop holding full voltage after the command dropped).
+    pub full_duty_after_s: f64,
     /// Response metrics.
     pub response: StepResponse,
     /// Restarts during the run.
@@ -254,18 +286,28 @@ pub fn compare(
                 &label(v),
             )?),
             Job::Step(v, aw) => {
-                let (from, to, at, dur) = plan.step;
+                let p = plan.step;
                 let mut c = config_of(v);
                 c.control.anti_windup = aw;
-                let mut sc = Scenario::hold(c, from, dur);
+                let mut sc = Scenario::hold(c, p.start_rpm, p.duration_s);
                 sc.plugin = variants[v].plugin.clone();
-                sc.speed_steps.push((at, to));
+                sc.speed_steps.push((p.beyond_at_s, p.beyond_rpm));
+                sc.speed_steps.push((p.at_s, p.to_rpm));
                 sc.speed_record_s = 0.5e-3;
                 let out = run(&sc, |_| {})?;
+                // The step starts from wherever the speed is when it is given.
+                let from = out
+                    .speed
+                    .iter()
+                    .take_while(|q| q.0 <= p.at_s)
+                    .last()
+                    .map_or(p.start_rpm, |q| q.1);
                 Done::Step(StepRun {
                     variant: label(v),
                     anti_windup: aw,
-                    response: step_response(&out.speed, at, from, to),
+                    from_rpm: from,
+                    full_duty_after_s: held_above(&out.duty, p.at_s, 0.95),
+                    response: step_response(&out.speed, p.at_s, from, p.to_rpm),
                     restarts: out.summary.restarts,
                     speed: out.speed,
                 })

@@ -42,7 +42,7 @@ pub const METRIC_DEFINITIONS: &[(&str, &str)] = &[
     ),
     (
         "rise / overshoot / settling",
-        "for the speed step: 10–90 % rise time of the true speed, peak beyond the new command in % of the step, and the time after the step from which the speed stays within ±2 % of the command",
+        "for the speed step out of saturation: 10–90 % rise (or fall) time of the true speed, peak beyond the new command in % of the step, and the time after the step from which the speed stays within ±2 % of the command",
     ),
     (
         "load dip / recovery",
@@ -69,13 +69,13 @@ pub fn terminal_table(c: &Comparison) -> String {
         "ripple",
         "T ripple",
         "I rms",
-        "step os % AW",
+        "full duty ms",
         "load dip rpm"
     );
     let _ = writeln!(
         s,
         "{:<22} {:>7} {:>7} {:>5} {:>13} {:>9} {:>9} {:>7} {:>13} {:>13}",
-        "", "rpm", "rpm", "ok", "mean / max", "rpm", "mN·m", "A", "on / off", "/ recovery s"
+        "", "rpm", "rpm", "ok", "mean / max", "rpm", "mN·m", "A", "AW on / off", "/ recovery s"
     );
     for v in &c.variants {
         let range = c.ranges.iter().find(|r| r.strategy == v.label);
@@ -86,7 +86,9 @@ pub fn terminal_table(c: &Comparison) -> String {
             c.steps
                 .iter()
                 .find(|x| x.variant == v.label && x.anti_windup == aw)
-                .map_or("–".into(), |x| format!("{:.1}", x.response.overshoot_pct))
+                .map_or("–".into(), |x| {
+                    format!("{:.0}", x.full_duty_after_s * 1e3)
+                })
         };
         let load = c.loads.iter().find(|l| l.variant == v.label);
         let _ = writeln!(
@@ -119,10 +121,10 @@ pub fn terminal_table(c: &Comparison) -> String {
     }
     let _ = writeln!(
         s,
-        "grid ok: speeds of {:?} rpm held within 2 % without restart; err/ripple/I at {trace_rpm:.0} rpm; step {:.0}→{:.0} rpm; load {:.1} mN·m at {:.0} rpm",
+        "grid ok: speeds of {:?} rpm held within 2 % without restart; err/ripple/I at {trace_rpm:.0} rpm; step to {:.0} rpm out of saturation ({:.0} rpm commanded before); load {:.1} mN·m at {:.0} rpm",
         c.plan.grid_rpm,
-        c.plan.step.0,
-        c.plan.step.1,
+        c.plan.step.to_rpm,
+        c.plan.step.beyond_rpm,
         c.plan.load.1 * 1e3,
         c.plan.load.0
     );
@@ -215,8 +217,12 @@ fn speed_step_chart(c: &Comparison) -> String {
     };
     chart(
         &format!(
-            "Speed step {:.0} → {:.0} rpm at t = {} s",
-            c.plan.step.0, c.plan.step.1, c.plan.step.2
+            "{:.0} rpm, {:.0} rpm (beyond reach) at {} s, step to {:.0} rpm at {} s",
+            c.plan.step.start_rpm,
+            c.plan.step.beyond_rpm,
+            c.plan.step.beyond_at_s,
+            c.plan.step.to_rpm,
+            c.plan.step.at_s
         ),
         "time [s]",
         &[panel(true), panel(false)],
@@ -440,15 +446,21 @@ fn markdown(c: &Comparison, config: &DriveConfig, crossings: &[String]) -> Strin
     }
     let _ = writeln!(
         s,
-        "\n## Speed step {:.0} → {:.0} rpm\n\n| strategy | anti-windup | rise s | overshoot % | settling s | restarts |\n|---|---|---:|---:|---:|---:|",
-        c.plan.step.0, c.plan.step.1
+        "\n## Speed step to {:.0} rpm out of saturation\n\nThe drive is commanded {:.0} rpm (beyond its reach: full voltage, the current loop saturated) at {} s, then {:.0} rpm at {} s; the response is measured from that step, starting at the speed reached. The chip has no braking state: after a step down the rotor coasts on friction, so the speed takes seconds to fall and the fall and settling times are usually not reached within the run (shown as \"–\").\n\n| strategy | anti-windup | from rpm | full duty after ms | fall s | overshoot % | settling s | restarts |\n|---|---|---:|---:|---:|---:|---:|---:|",
+        c.plan.step.to_rpm,
+        c.plan.step.beyond_rpm,
+        c.plan.step.beyond_at_s,
+        c.plan.step.to_rpm,
+        c.plan.step.at_s
     );
     for x in &c.steps {
         let _ = writeln!(
             s,
-            "| {} | {} | {} | {:.1} | {} | {} |",
+            "| {} | {} | {:.0} | {:.1} | {} | {:.1} | {} | {} |",
             x.variant,
             if x.anti_windup { "on" } else { "off" },
+            x.from_rpm,
+            x.full_duty_after_s * 1e3,
             opt(x.response.rise_s, 1.0, 3),
             x.response.overshoot_pct,
             opt(x.response.settling_s, 1.0, 3),

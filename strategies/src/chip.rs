@@ -23,6 +23,11 @@ pub const START_DEBOUNCE: Ticks = Ticks(31);
 /// 10 µs, well above the comparator's response (≈ 1 µs RC + 0.1 µs) plus the filter's.
 pub const BLANKING: Ticks = Ticks(500);
 
+/// Range of the current PI's integrator relative to its output limit: the chip's 23-bit
+/// anti-windup path holds up to 2^23 − 1 where the limit is 4 096 000 (= 2000 counts ×
+/// 2048), so without anti-windup the integrator can wind to ≈ 2.05× full duty (SPEC §6–§7).
+pub const CURRENT_INTEGRATOR_HEADROOM: f64 = ((1u64 << 23) - 1) as f64 / 4_096_000.0;
+
 /// The three alignment patterns u→v, v→w, v→u (flags 0100, 0000, 0001).
 pub const ALIGN_PATTERNS: [Pattern; 3] = {
     use LegState::{Float as F, High as V, Low as G};
@@ -63,9 +68,11 @@ pub struct ChipStatus {
     pub state: u8,
     /// Bridge flag of the pattern in force.
     pub flag: u8,
-    /// Raw Z_d (selected comparator) at the last tick.
+    /// Raw Z_d (selected comparator) at the chip's last tick. In the post part the chip
+    /// does not watch the comparators (nothing is detected there), so this holds the level
+    /// seen at the crossing until the next tick.
     pub zd: bool,
-    /// Z_d after the guard's filter (equal to `zd` without one).
+    /// Z_d after the guard's filter (equal to `zd` without one), same instant as `zd`.
     pub zdf: bool,
     /// Inside a linear region (PWM stopped).
     pub linear: bool,
@@ -75,6 +82,9 @@ pub struct ChipStatus {
     pub speed_est_rpm: u32,
     /// Current command from the speed PI [A].
     pub current_ref_a: f64,
+    /// Integrator of the current PI [carrier counts]; above the carrier top only without
+    /// anti-windup (wound up).
+    pub current_integrator: f64,
     /// Restarts so far (step-miss errors).
     pub restarts: u32,
     /// Accepted zero crossings since the last hand-over.
@@ -150,6 +160,7 @@ impl Chip {
                 ki: control.speed_ki,
                 lo: 0.0,
                 hi: control.current_limit_a,
+                ui_hi: control.current_limit_a,
                 k_s: 0.0,
             },
             0.0,
@@ -160,6 +171,7 @@ impl Chip {
                 ki: control.current_ki,
                 lo: 0.0,
                 hi: f64::from(top),
+                ui_hi: f64::from(top) * CURRENT_INTEGRATOR_HEADROOM,
                 k_s: if control.anti_windup {
                     control.anti_windup_gain
                 } else {
@@ -227,6 +239,22 @@ impl Chip {
         self.speed_ref_rpm
     }
 
+    /// Changes the twelve-step conduction angle [electrical degrees], effective from the
+    /// next crossing. Rule: 120 ≤ x < 180, twelve-step strategies only.
+    pub fn set_conduction_angle(&mut self, deg: f64) -> Result<(), ParamError> {
+        let strategy = StrategyParams {
+            name: self.name,
+            conduction_angle_deg: Some(deg),
+            ..StrategyParams::default()
+        };
+        strategy.validate()?;
+        self.table = Table::TwelveStep {
+            conduction_deg: strategy.conduction_deg(),
+        };
+        self.shifter.set_table(self.table);
+        Ok(())
+    }
+
     /// The commutation table in use.
     pub fn table(&self) -> Table {
         self.table
@@ -253,6 +281,7 @@ impl Chip {
             duty: self.duty(),
             speed_est_rpm: self.speed.rpm(),
             current_ref_a: self.i_ref,
+            current_integrator: self.current_pi.integrator(),
             restarts: self.restarts,
             crossings: self.crossings,
             forced_crossings: self.shifter.forced_crossings(),
@@ -441,6 +470,9 @@ impl crate::Strategy for Chip {
     fn speed_ref_rpm(&self) -> f64 {
         Chip::speed_ref_rpm(self)
     }
+    fn set_conduction_angle(&mut self, deg: f64) -> Result<(), ParamError> {
+        Chip::set_conduction_angle(self, deg)
+    }
     fn try_clone(&self) -> Result<Box<dyn crate::Strategy>, String> {
         Ok(Box::new(self.clone()))
     }
@@ -524,6 +556,30 @@ mod tests {
             .max(Ticks(now.0 + 1))
             .next_edge(clocks::COMMUTATION);
         c.tick(*now, &Sensed::default())
+    }
+
+    #[test]
+    fn conduction_angle_changes_only_within_its_rule_and_only_for_twelve_step() {
+        let mut c = chip(5);
+        assert!(c.set_conduction_angle(165.0).is_ok());
+        assert_eq!(
+            c.table(),
+            Table::TwelveStep {
+                conduction_deg: 165.0
+            }
+        );
+        let e = c.set_conduction_angle(180.0).unwrap_err();
+        assert!(
+            e.to_string().contains("strategy.conduction_angle_deg"),
+            "{e}"
+        );
+        let six = StrategyParams {
+            name: StrategyName::SixStep120,
+            ..StrategyParams::default()
+        };
+        let mut c = Chip::new(ControlParams::default(), six, 6, 0.5 / 4095.0, 2000).unwrap();
+        assert!(c.set_conduction_angle(150.0).is_err());
+        assert_eq!(c.table(), Table::SixStep);
     }
 
     #[test]

@@ -4,14 +4,20 @@
 //!
 //! ```text
 //! uc(k) = Kp·e(k) + ui(k−1) + Ki·e(k)                     (pre-saturation command)
-//! ui(k) = sat(ui(k−1) + Ki·e(k) − k_s·(uc(k) − sat(uc(k))))  (k_s = 0 without anti-windup)
+//! ui(k) = sat(ui(k−1) + Ki·e(k) − k_s·max(uc(k) − hi, 0))  (k_s = 0 without anti-windup)
 //! u(k)  = sat(uc(k))
 //! ```
 //!
-//! sat clamps to [lo, hi], after the integrator and at the output as in the chip. Without
+//! sat clamps the output to [lo, hi] and the integrator to [lo, ui_hi] (its register's
+//! range, ≥ hi), after the integrator and at the output as in the chip. Without
 //! anti-windup the integrator runs up to its own limit while the output is saturated and
 //! must be unwound by an error of the other sign; with it, any excess over the limit is
 //! fed back k_s-fold, which pulls the integrator out of saturation within one update.
+//!
+//! The back-calculation acts on the upper limit only (SPEC §6: "when uc exceeds the
+//! limit", the chip's 4 096 000). Mirrored at the lower limit, a k_s ≫ 1 turns a large
+//! negative proportional term (one high current sample) into a k_s-fold *positive* kick
+//! that flings the integrator to full duty; there the integrator clamp alone suffices.
 
 /// Gains, limits and anti-windup of one PI.
 #[derive(Copy, Clone, Debug, PartialEq)]
@@ -22,8 +28,11 @@ pub struct PiGains {
     pub ki: f64,
     /// Lower limit of output and integrator.
     pub lo: f64,
-    /// Upper limit of output and integrator.
+    /// Upper limit of the output (and, with anti-windup, the back-calculation reference).
     pub hi: f64,
+    /// Upper limit of the integrator: the range of its register, ≥ `hi`. Without
+    /// anti-windup the integrator winds up to this while the output sits at `hi`.
+    pub ui_hi: f64,
     /// Back-calculation gain k_s (0 disables anti-windup).
     pub k_s: f64,
 }
@@ -42,7 +51,7 @@ impl Pi {
     pub fn new(gains: PiGains, ui0: f64) -> Self {
         Pi {
             gains,
-            ui: ui0.clamp(gains.lo, gains.hi),
+            ui: ui0.clamp(gains.lo, gains.ui_hi.max(gains.hi)),
             out: ui0.clamp(gains.lo, gains.hi),
         }
     }
@@ -53,7 +62,8 @@ impl Pi {
         let integ = self.ui + g.ki * e;
         let uc = g.kp * e + integ;
         let out = uc.clamp(g.lo, g.hi);
-        self.ui = (integ - g.k_s * (uc - out)).clamp(g.lo, g.hi);
+        let excess = (uc - g.hi).max(0.0);
+        self.ui = (integ - g.k_s * excess).clamp(g.lo, g.ui_hi.max(g.hi));
         self.out = out;
         out
     }
@@ -70,8 +80,8 @@ impl Pi {
 
     /// Sets the integrator (bumpless hand-over), clamped to the limits.
     pub fn set_integrator(&mut self, ui: f64) {
-        self.ui = ui.clamp(self.gains.lo, self.gains.hi);
-        self.out = self.ui;
+        self.ui = ui.clamp(self.gains.lo, self.gains.ui_hi.max(self.gains.hi));
+        self.out = self.ui.min(self.gains.hi);
     }
 }
 
@@ -85,6 +95,7 @@ mod tests {
             ki: 0.5,
             lo: 0.0,
             hi: 10.0,
+            ui_hi: 10.0,
             k_s,
         }
     }
@@ -122,6 +133,7 @@ mod tests {
             ki: 1.0,
             lo: 0.0,
             hi: 10.0,
+            ui_hi: 10.0,
             k_s,
         };
         // A large error saturates the output for 5 updates, then the error vanishes.
@@ -141,5 +153,39 @@ mod tests {
         let mut p = Pi::new(g(2.0), 5.0);
         assert_eq!(p.update(3.0), 10.0);
         assert_eq!(p.integrator(), 6.0);
+    }
+
+    #[test]
+    fn anti_windup_does_not_kick_the_integrator_up_at_the_lower_limit() {
+        // ui = 2, e = −3: integ = 0.5 (Ki 0.5), uc = −5.5 → output 0. Mirrored back-calculation
+        // would add 32·5.5 and fling ui to the top (10); the chip's acts on the upper limit only.
+        let mut p = Pi::new(gains(32.0), 2.0);
+        assert_eq!(p.update(-3.0), 0.0);
+        assert_eq!(p.integrator(), 0.5);
+    }
+
+    #[test]
+    fn a_wider_integrator_register_winds_up_past_the_output_limit() {
+        let g = |k_s| PiGains {
+            ui_hi: 20.0,
+            ..gains(k_s)
+        };
+        let mut off = Pi::new(g(0.0), 0.0);
+        let mut on = Pi::new(g(32.0), 0.0);
+        for _ in 0..100 {
+            off.update(3.0);
+            on.update(3.0);
+        }
+        // Without anti-windup: wound to the register's 20 while the output shows 10; it
+        // takes (20 − 10)/(0.5·1) = 20 updates of e = −1 before the output leaves the limit.
+        assert_eq!((off.output(), off.integrator()), (10.0, 20.0));
+        assert_eq!(off.update(-1.0), 10.0);
+        // With it: uc − hi is fed back, the integrator stays below hi − Kp·e.
+        assert!(
+            on.integrator() <= 10.0 - 2.0 * 3.0 + 1e-9,
+            "{}",
+            on.integrator()
+        );
+        assert!(on.update(-1.0) < 10.0);
     }
 }

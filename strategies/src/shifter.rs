@@ -86,6 +86,12 @@ impl PhaseShifter {
         }
     }
 
+    /// Replaces the table (same sectors, another post fraction), effective from the next
+    /// crossing.
+    pub fn set_table(&mut self, table: Table) {
+        self.table = table;
+    }
+
     /// Starts closed-loop operation at `now` in the pre part of `sector`, whose floating
     /// phase has been floating long enough to carry no current (the last alignment step):
     /// the detector is armed at once, and t_60 is assumed to be `t60_counts` until two

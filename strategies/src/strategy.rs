@@ -2,6 +2,7 @@
 
 use crate::chip::ChipStatus;
 use crate::table::Table;
+use drive_core::error::ParamError;
 use drive_core::{Controller, Ticks};
 
 /// A complete chip-like controller: commutation, guard, start-up and speed/current control
@@ -25,6 +26,16 @@ pub trait Strategy: Controller + Send {
     fn set_speed_ref(&mut self, rpm: f64);
     /// The speed command in force [rpm].
     fn speed_ref_rpm(&self) -> f64;
+    /// Changes the twelve-step conduction angle while running [electrical degrees,
+    /// 120 ≤ x < 180], effective from the next crossing: the source's future work of moving
+    /// the timing gradually toward 180°. Strategies without one refuse (the default).
+    fn set_conduction_angle(&mut self, deg: f64) -> Result<(), ParamError> {
+        Err(ParamError::new(
+            "strategy.conduction_angle_deg",
+            deg,
+            "this strategy has no adjustable conduction angle",
+        ))
+    }
     /// An independent copy in the same state, or why there cannot be one.
     fn try_clone(&self) -> Result<Box<dyn Strategy>, String>;
 }

@@ -150,6 +150,8 @@ pub struct CStatus {
     pub speed_est_rpm: u32,
     /// Current command [A].
     pub current_ref_a: f64,
+    /// Current-PI integrator [carrier counts] (0 if the strategy has none).
+    pub current_integrator: f64,
     /// Restarts so far.
     pub restarts: u32,
     /// Accepted zero crossings.

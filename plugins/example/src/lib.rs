@@ -108,6 +108,7 @@ impl Plugin for ExampleDf {
                 duty: st.duty,
                 speed_est_rpm: st.speed_est_rpm,
                 current_ref_a: st.current_ref_a,
+                current_integrator: st.current_integrator,
                 restarts: st.restarts,
                 crossings: st.crossings,
                 forced_crossings: st.forced_crossings,
