@@ -5,6 +5,7 @@ use drive_core::error::ParamError;
 use drive_core::pwm::PwmSchemeKind;
 use drive_core::{Carrier, Engine, EngineError, Ticks};
 use plants::BldcPlant;
+use strategies::plugin::DriveInfo;
 use strategies::{Chip, PluginError, PluginLibrary, Strategy};
 
 /// The engine type of a drive: the PWM scheme is chosen by `[power_stage] pwm_scheme`.
@@ -14,24 +15,15 @@ pub type DriveEngine = Engine<BldcPlant, Box<dyn Strategy>, PwmSchemeKind>;
 /// Builds the plant and the chip from `config` and puts them on an engine at t = 0, with
 /// the start input held from t = 0.
 pub fn build(config: &DriveConfig) -> Result<DriveEngine, ParamError> {
-    config.validate()?;
-    let plant = BldcPlant::new(config.plant_params())?;
-    let carrier = Carrier::default();
-    let chip: Box<dyn Strategy> = Box::new(Chip::new(
-        config.control.clone(),
-        config.strategy.clone(),
-        config.motor.poles / 2,
-        plant.current_sense().amps_per_code(),
-        carrier.top,
-    )?);
-    let dead_time = config.power_stage.dead_time();
-    Ok(Engine::new(
-        plant,
-        chip,
-        config.power_stage.pwm_scheme,
-        carrier,
-        dead_time,
-    ))
+    assemble(config, |info| {
+        Ok::<_, ParamError>(Box::new(Chip::new(
+            config.control.clone(),
+            config.strategy.clone(),
+            info.pole_pairs,
+            info.amps_per_code,
+            info.carrier_top,
+        )?))
+    })
 }
 
 /// Why a drive with a plugin strategy could not be built.
@@ -51,22 +43,32 @@ pub fn build_plugin(
     config: &DriveConfig,
     plugin: &PluginLibrary,
 ) -> Result<DriveEngine, BuildError> {
+    assemble(config, |info| {
+        let s = plugin.instantiate(&config.to_toml(), info, config.control.speed_ref_rpm)?;
+        Ok::<_, BuildError>(Box::new(s))
+    })
+}
+
+/// The plant, carrier and PWM scheme of `config` on an engine, with the strategy made by
+/// `strategy` from the facts it needs about the drive.
+fn assemble<E: From<ParamError>>(
+    config: &DriveConfig,
+    strategy: impl FnOnce(DriveInfo) -> Result<Box<dyn Strategy>, E>,
+) -> Result<DriveEngine, E> {
     config.validate()?;
     let plant = BldcPlant::new(config.plant_params())?;
     let carrier = Carrier::default();
-    let info = strategies::plugin::DriveInfo {
+    let strategy = strategy(DriveInfo {
         pole_pairs: config.motor.poles / 2,
         amps_per_code: plant.current_sense().amps_per_code(),
         carrier_top: carrier.top,
-    };
-    let strategy = plugin.instantiate(&config.to_toml(), info, config.control.speed_ref_rpm)?;
-    let dead_time = config.power_stage.dead_time();
+    })?;
     Ok(Engine::new(
         plant,
-        Box::new(strategy),
+        strategy,
         config.power_stage.pwm_scheme,
         carrier,
-        dead_time,
+        config.power_stage.dead_time(),
     ))
 }
 
