@@ -1,0 +1,52 @@
+//! Project tasks. `cargo xtask fmu` builds the FMU library in release mode and packages
+//! `target/fmu/BldcDrive.fmu`: `modelDescription.xml` (written by the fmu crate from its
+//! variable table) and `binaries/linux64/bldc_drive.so`. Tests call [`package_fmu`] too.
+
+pub mod zip;
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+/// The workspace root.
+pub fn root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .parent()
+        .map_or_else(|| PathBuf::from(".."), Path::to_path_buf)
+}
+
+/// The target directory cargo uses.
+pub fn target_dir() -> PathBuf {
+    std::env::var_os("CARGO_TARGET_DIR").map_or_else(|| root().join("target"), PathBuf::from)
+}
+
+/// Builds the release library and the model-description tool, writes the FMU, returns its
+/// path.
+pub fn package_fmu() -> Result<PathBuf, String> {
+    let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
+    let status = Command::new(&cargo)
+        .current_dir(root())
+        .args(["build", "--release", "--package", "fmu", "--lib", "--bins", "--examples"])
+        .status()
+        .map_err(|e| format!("cannot run cargo: {e}"))?;
+    if !status.success() {
+        return Err(format!("cargo build of the fmu crate failed ({status})"));
+    }
+    let release = target_dir().join("release");
+    let xml = Command::new(release.join("model-description"))
+        .output()
+        .map_err(|e| format!("cannot run model-description: {e}"))?;
+    if !xml.status.success() {
+        return Err("model-description failed".into());
+    }
+    let so_path = release.join("libfmu.so");
+    let so = std::fs::read(&so_path).map_err(|e| format!("{}: {e}", so_path.display()))?;
+    let zip = zip::archive(&[
+        ("modelDescription.xml", &xml.stdout),
+        ("binaries/linux64/bldc_drive.so", &so),
+    ])?;
+    let dir = target_dir().join("fmu");
+    std::fs::create_dir_all(&dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+    let out = dir.join("BldcDrive.fmu");
+    std::fs::write(&out, zip).map_err(|e| format!("{}: {e}", out.display()))?;
+    Ok(out)
+}
