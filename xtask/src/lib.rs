@@ -47,6 +47,9 @@ pub fn package_fmu() -> Result<PathBuf, String> {
     let dir = target_dir().join("fmu");
     std::fs::create_dir_all(&dir).map_err(|e| format!("{}: {e}", dir.display()))?;
     let out = dir.join("BldcDrive.fmu");
-    std::fs::write(&out, zip).map_err(|e| format!("{}: {e}", out.display()))?;
+    // Written beside and renamed, so a reader never sees half an archive.
+    let tmp = dir.join(format!(".BldcDrive.fmu.{}", std::process::id()));
+    std::fs::write(&tmp, zip).map_err(|e| format!("{}: {e}", tmp.display()))?;
+    std::fs::rename(&tmp, &out).map_err(|e| format!("{}: {e}", out.display()))?;
     Ok(out)
 }
