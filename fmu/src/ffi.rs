@@ -20,14 +20,8 @@ pub const ERROR: Status = 3;
 pub const FATAL: Status = 4;
 
 /// `fmi2CallbackLogger`: printf-style, variadic.
-pub type Logger = unsafe extern "C" fn(
-    *mut c_void,
-    *const c_char,
-    Status,
-    *const c_char,
-    *const c_char,
-    ...
-);
+pub type Logger =
+    unsafe extern "C" fn(*mut c_void, *const c_char, Status, *const c_char, *const c_char, ...);
 
 /// `fmi2CallbackFunctions` (field order and C layout as in the header).
 #[repr(C)]
@@ -107,7 +101,7 @@ impl Instance {
 }
 
 /// Calls a C logger with `"%s"` and the message, so the text is never a format string.
-pub fn log_raw(
+pub(crate) fn log_raw(
     logger: Option<Logger>,
     env: *mut c_void,
     name: &CStr,
@@ -171,7 +165,11 @@ pub fn guarded<T>(on_panic: T, body: impl FnOnce() -> T) -> T {
 
 /// Runs `body` on the instance behind `c`: refuses a stale or foreign pointer, and turns a
 /// panic into `fmi2Error` with the instance put in the error phase.
-pub fn with_instance(c: *mut c_void, call: &str, body: impl FnOnce(&mut Instance) -> Status) -> Status {
+pub fn with_instance(
+    c: *mut c_void,
+    call: &str,
+    body: impl FnOnce(&mut Instance) -> Status,
+) -> Status {
     if !is_live(Handle::Instance, c) {
         return ERROR; // nothing to log with: the logger lives in the instance
     }

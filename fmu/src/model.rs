@@ -123,7 +123,9 @@ impl Model {
         if let Some(s) = stop
             && !(s.is_finite() && s >= start)
         {
-            return err(format!("stopTime = {s} (rule: finite and >= startTime = {start})"));
+            return err(format!(
+                "stopTime = {s} (rule: finite and >= startTime = {start})"
+            ));
         }
         self.start_time = start;
         self.time = start;
@@ -153,7 +155,9 @@ impl Model {
             self.drive = Some(d);
         }
         // Just built or kept: present either way.
-        self.drive.as_mut().ok_or_else(|| Fault::Error("no drive".into()))
+        self.drive
+            .as_mut()
+            .ok_or_else(|| Fault::Error("no drive".into()))
     }
 
     /// `fmi2Terminate`.
@@ -209,10 +213,7 @@ impl Model {
     pub fn set(&mut self, access: Access, vr: u32, x: f64) -> Result<(), Fault> {
         let v = checked(access, vr)?;
         if !x.is_finite() {
-            return err(format!(
-                "`{}` = {x} (rule: must be finite)",
-                v.name
-            ));
+            return err(format!("`{}` = {x} (rule: must be finite)", v.name));
         }
         let before_init = matches!(self.phase, Phase::Instantiated | Phase::InitializationMode);
         match v.role {
@@ -255,10 +256,14 @@ impl Model {
     pub fn do_step(&mut self, tc: f64, h: f64) -> Result<(), Fault> {
         self.require(&[Phase::StepComplete], "fmi2DoStep")?;
         if !tc.is_finite() {
-            return err(format!("currentCommunicationPoint = {tc} (rule: must be finite)"));
+            return err(format!(
+                "currentCommunicationPoint = {tc} (rule: must be finite)"
+            ));
         }
         if !(h.is_finite() && h > 0.0) {
-            return err(format!("communicationStepSize = {h} (rule: must be finite and > 0)"));
+            return err(format!(
+                "communicationStepSize = {h} (rule: must be finite and > 0)"
+            ));
         }
         // Half a tick: the engine cannot tell instants closer than that apart.
         let tol = 0.5 * TICK_S;
@@ -277,7 +282,9 @@ impl Model {
             ));
         }
         let Some(target) = Ticks::from_seconds(end - self.start_time) else {
-            return err(format!("step to {end} s is beyond the engine's tick counter"));
+            return err(format!(
+                "step to {end} s is beyond the engine's tick counter"
+            ));
         };
         let d = self.ensure_drive()?;
         if let Err(e) = d.run_to(target) {
@@ -351,7 +358,13 @@ mod tests {
     #[test]
     fn bad_steps_name_the_value_and_rule() {
         let mut m = initialized();
-        for (tc, h) in [(0.0, -1e-3), (0.0, 0.0), (0.0, f64::NAN), (0.0, f64::INFINITY), (0.5, 1e-3)] {
+        for (tc, h) in [
+            (0.0, -1e-3),
+            (0.0, 0.0),
+            (0.0, f64::NAN),
+            (0.0, f64::INFINITY),
+            (0.5, 1e-3),
+        ] {
             let Err(Fault::Error(msg)) = m.do_step(tc, h) else {
                 panic!("step ({tc}, {h}) accepted")
             };
@@ -384,7 +397,10 @@ mod tests {
             t = f64::from(k) * h; // the master's next point, as fmpy computes it
             let now = m.drive.as_ref().unwrap().engine.now();
             assert_eq!(now, Ticks::from_seconds(end).unwrap(), "step {k}");
-            assert!((now.seconds() - t).abs() <= 0.5 * TICK_S + 1e-15, "step {k}");
+            assert!(
+                (now.seconds() - t).abs() <= 0.5 * TICK_S + 1e-15,
+                "step {k}"
+            );
         }
         assert_eq!(m.drive.as_ref().unwrap().engine.now(), Ticks(350));
     }
@@ -393,13 +409,23 @@ mod tests {
     fn parameters_are_fixed_after_initialization_and_checked_at_its_end() {
         let mut m = Model::new();
         m.enter_initialization().unwrap();
-        m.set(Access::Real, vr("motor.resistance_ohm"), -1.0).unwrap();
-        let Err(Fault::Error(msg)) = m.exit_initialization() else { panic!() };
-        assert!(msg.contains("motor.resistance_ohm") && msg.contains("-1"), "{msg}");
+        m.set(Access::Real, vr("motor.resistance_ohm"), -1.0)
+            .unwrap();
+        let Err(Fault::Error(msg)) = m.exit_initialization() else {
+            panic!()
+        };
+        assert!(
+            msg.contains("motor.resistance_ohm") && msg.contains("-1"),
+            "{msg}"
+        );
         assert_eq!(m.phase, Phase::InitializationMode);
-        m.set(Access::Real, vr("motor.resistance_ohm"), 2.0).unwrap();
+        m.set(Access::Real, vr("motor.resistance_ohm"), 2.0)
+            .unwrap();
         m.exit_initialization().unwrap();
-        assert!(m.set(Access::Real, vr("motor.resistance_ohm"), 3.0).is_err());
+        assert!(
+            m.set(Access::Real, vr("motor.resistance_ohm"), 3.0)
+                .is_err()
+        );
         assert_eq!(m.values[vr("motor.resistance_ohm") as usize], 2.0);
     }
 

@@ -212,10 +212,17 @@ mod tests {
     }
 
     fn outputs(m: &mut Model) -> Vec<f64> {
-        let vrs: Vec<u32> = ["speed_rpm", "theta_e_deg", "i_u", "i_v", "torque_nm", "duty"]
-            .iter()
-            .map(|n| vr_of(n).unwrap())
-            .collect();
+        let vrs: Vec<u32> = [
+            "speed_rpm",
+            "theta_e_deg",
+            "i_u",
+            "i_v",
+            "torque_nm",
+            "duty",
+        ]
+        .iter()
+        .map(|n| vr_of(n).unwrap())
+        .collect();
         let mut o = vec![0.0; vrs.len()];
         m.get(Access::Real, &vrs, &mut o).unwrap();
         o
@@ -227,8 +234,10 @@ mod tests {
         m.enter_initialization().unwrap();
         m.exit_initialization().unwrap();
         run(&mut m, 0.02, 1e-3);
-        m.set(Access::Real, vr_of("load_torque_nm").unwrap(), 1e-4).unwrap();
-        m.set(Access::Real, vr_of("speed_ref_rpm").unwrap(), 2500.0).unwrap();
+        m.set(Access::Real, vr_of("load_torque_nm").unwrap(), 1e-4)
+            .unwrap();
+        m.set(Access::Real, vr_of("speed_ref_rpm").unwrap(), 2500.0)
+            .unwrap();
         run(&mut m, 0.05, 0.7e-3);
         let bytes = serialize(&m);
         let mut copy = deserialize(&bytes).unwrap();

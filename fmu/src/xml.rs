@@ -76,7 +76,11 @@ pub fn model_description() -> String {
     x.push_str(&units_and_types());
     x.push_str("  <LogCategories>\n");
     for (name, desc) in LOG_CATEGORIES {
-        let _ = writeln!(x, "    <Category name=\"{name}\" description=\"{}\"/>", esc(desc));
+        let _ = writeln!(
+            x,
+            "    <Category name=\"{name}\" description=\"{}\"/>",
+            esc(desc)
+        );
     }
     x.push_str("  </LogCategories>\n");
     x.push_str("  <DefaultExperiment startTime=\"0\" stopTime=\"3\" stepSize=\"0.001\"/>\n");
@@ -106,9 +110,18 @@ fn units_and_types() -> String {
     }
     x.push_str("  </UnitDefinitions>\n  <TypeDefinitions>\n");
     for t in [EnumType::Strategy, EnumType::PwmScheme] {
-        let _ = writeln!(x, "    <SimpleType name=\"{}\">\n      <Enumeration>", t.type_name());
+        let _ = writeln!(
+            x,
+            "    <SimpleType name=\"{}\">\n      <Enumeration>",
+            t.type_name()
+        );
         for (i, item) in t.items().iter().enumerate() {
-            let _ = writeln!(x, "        <Item name=\"{}\" value=\"{}\"/>", esc(item), i + 1);
+            let _ = writeln!(
+                x,
+                "        <Item name=\"{}\" value=\"{}\"/>",
+                esc(item),
+                i + 1
+            );
         }
         x.push_str("      </Enumeration>\n    </SimpleType>\n");
     }

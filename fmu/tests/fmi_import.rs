@@ -5,10 +5,10 @@
 use bldc_drive::DriveConfig;
 use bldc_drive::drive::{build, run_to};
 use fmi::fmi2::import::Fmi2Import;
-use std::path::PathBuf;
-use std::sync::OnceLock;
 use fmi::fmi2::instance::{CoSimulation, Common};
 use fmi::traits::{FmiImport, FmiInstance, FmiStatus};
+use std::path::PathBuf;
+use std::sync::OnceLock;
 
 const H: f64 = 0.5e-3;
 const SPEED_REF: f64 = 3500.0;
@@ -20,7 +20,9 @@ const STEPS: u32 = 3000; // 1.5 s
 fn import() -> Fmi2Import {
     static FMU: OnceLock<Result<PathBuf, String>> = OnceLock::new();
     let path = FMU.get_or_init(xtask::package_fmu);
-    let path = path.as_ref().unwrap_or_else(|e| panic!("packaging the FMU failed: {e}"));
+    let path = path
+        .as_ref()
+        .unwrap_or_else(|e| panic!("packaging the FMU failed: {e}"));
     fmi::import::from_path(path).expect("the fmi crate imports the FMU")
 }
 
@@ -90,7 +92,10 @@ fn fmi_crate_co_simulates_the_fmu_bit_identically_to_the_native_drive() {
         assert_eq!(a, b, "FMU vs native at t = {} s", b.0);
     }
     let peak = reference.iter().map(|r| r.1).fold(0.0, f64::max);
-    assert!(peak > 0.98 * SPEED_REF, "the drive reached {peak} rpm of {SPEED_REF}");
+    assert!(
+        peak > 0.98 * SPEED_REF,
+        "the drive reached {peak} rpm of {SPEED_REF}"
+    );
 
     // The state serialized at 0.5 s, restored through the importer, replays the rest.
     let s = inst.deserialize_fmu_state(&saved.unwrap()).unwrap();
@@ -112,11 +117,17 @@ fn fmi_crate_co_simulates_the_fmu_bit_identically_to_the_native_drive() {
 fn fmi_crate_sees_bad_calls_refused() {
     let import = import();
     let mut inst = import.instantiate_cs("bad", false, true).unwrap();
-    assert!(inst.do_step(0.0, H, true).is_err(), "step before initialization");
+    assert!(
+        inst.do_step(0.0, H, true).is_err(),
+        "step before initialization"
+    );
     FmiInstance::enter_initialization_mode(&mut inst, None, 0.0, None).unwrap();
     let r = vr(&import, "motor.resistance_ohm");
     Common::set_real(&mut inst, &[r], &[0.0]).unwrap();
-    assert!(FmiInstance::exit_initialization_mode(&mut inst).is_err(), "R = 0 breaks its rule");
+    assert!(
+        FmiInstance::exit_initialization_mode(&mut inst).is_err(),
+        "R = 0 breaks its rule"
+    );
     Common::set_real(&mut inst, &[r], &[2.2]).unwrap();
     FmiInstance::exit_initialization_mode(&mut inst).unwrap();
     assert!(inst.do_step(0.0, -H, true).is_err(), "negative step");

@@ -25,7 +25,15 @@ pub fn package_fmu() -> Result<PathBuf, String> {
     let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
     let status = Command::new(&cargo)
         .current_dir(root())
-        .args(["build", "--release", "--package", "fmu", "--lib", "--bins", "--examples"])
+        .args([
+            "build",
+            "--release",
+            "--package",
+            "fmu",
+            "--lib",
+            "--bins",
+            "--examples",
+        ])
         .status()
         .map_err(|e| format!("cannot run cargo: {e}"))?;
     if !status.success() {
