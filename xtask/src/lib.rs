@@ -46,8 +46,7 @@ pub fn package_fmu() -> Result<PathBuf, String> {
     if !xml.status.success() {
         return Err("model-description failed".into());
     }
-    let so_path = release.join("libfmu.so");
-    let so = std::fs::read(&so_path).map_err(|e| format!("{}: {e}", so_path.display()))?;
+    let so = shared_object(&release.join("libfmu.so"))?;
     let zip = zip::archive(&[
         ("modelDescription.xml", &xml.stdout),
         ("binaries/linux64/bldc_drive.so", &so),
@@ -60,4 +59,22 @@ pub fn package_fmu() -> Result<PathBuf, String> {
     std::fs::write(&tmp, zip).map_err(|e| format!("{}: {e}", tmp.display()))?;
     std::fs::rename(&tmp, &out).map_err(|e| format!("{}: {e}", out.display()))?;
     Ok(out)
+}
+
+/// The library without its debug info (the release profile keeps it for profiling; it
+/// would make the FMU ten times larger). Unstripped, with a note, when `strip` is missing.
+fn shared_object(path: &Path) -> Result<Vec<u8>, String> {
+    let stripped = path.with_extension("stripped.so");
+    let ok = Command::new("strip")
+        .arg("--strip-debug")
+        .arg("-o")
+        .arg(&stripped)
+        .arg(path)
+        .status()
+        .is_ok_and(|s| s.success());
+    if !ok {
+        eprintln!("note: `strip` (binutils) unavailable, the FMU keeps its debug info");
+    }
+    let src = if ok { &stripped } else { path };
+    std::fs::read(src).map_err(|e| format!("{}: {e}", src.display()))
 }
