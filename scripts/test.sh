@@ -7,4 +7,30 @@ if ! command -v cargo >/dev/null 2>&1; then
     echo "error: cargo not found; install the Rust toolchain (https://rustup.rs) and retry" >&2
     exit 1
 fi
+
+# FMU tests need a Python venv with fmpy (pinned), and the `fmi` crate (a dev-dependency of
+# fmu/) needs libclang for bindgen: the system's if installed, else the PyPI wheel `libclang`
+# in the venv with gcc's builtin headers. Both are installed here when missing.
+venv=target/venv
+if ! "$venv/bin/python" -c "import fmpy, clang" >/dev/null 2>&1; then
+    if ! command -v python3 >/dev/null 2>&1; then
+        echo "error: python3 not found; install it (apt-get install python3 python3-venv) and retry" >&2
+        exit 1
+    fi
+    python3 -m venv "$venv" || { echo "error: python3 -m venv failed; apt-get install python3-venv" >&2; exit 1; }
+    "$venv/bin/pip" install --quiet fmpy==0.3.32 libclang==18.1.1
+fi
+if [ -z "${LIBCLANG_PATH:-}" ] && ! ls /usr/lib/llvm-*/lib/libclang.so* /usr/lib/*/libclang-*.so* >/dev/null 2>&1; then
+    LIBCLANG_PATH=$("$venv/bin/python" -c "import clang, os; print(os.path.join(os.path.dirname(clang.__file__), 'native'))")
+    export LIBCLANG_PATH
+    export BINDGEN_EXTRA_CLANG_ARGS="-I$(gcc -print-file-name=include)"
+fi
+cargo xtask fmu >/dev/null
+
 cargo test --workspace --all-targets --locked "$@"
+
+for t in fmu/tests/*.py; do
+    [ "$(basename "$t")" = fmu_paths.py ] && continue
+    echo "== $t"
+    "$venv/bin/python" "$t"
+done

@@ -118,6 +118,14 @@ impl<P: Plant, C: Controller, S: PwmScheme> Engine<P, C, S> {
         self.sample_period = if period.0 == 0 { Ticks::NEVER } else { period };
     }
 
+    /// Wakes the controller at its next clock edge after now. Call it after changing an
+    /// input of the controller from outside (start, reset): a controller that asked to
+    /// sleep (off, waiting for start) would otherwise never see the change.
+    pub fn wake_controller(&mut self) {
+        let edge = Ticks(self.now.0 + 1).next_edge(self.controller.clock());
+        self.wake = self.wake.min(edge);
+    }
+
     /// The last engine instant (a whole tick).
     pub fn now(&self) -> Ticks {
         self.now

@@ -1,1 +1,17 @@
-//! fmu: the drive as an FMI 2.0 co-simulation FMU (arrives with its own issue).
+//! fmu: the complete drive as an FMI 2.0 co-simulation FMU (`bldc_drive`).
+//!
+//! Layers: [`variables`] (the one table of variables) → [`model`] and [`drive`] (the safe
+//! core: state machine, values, exact tick clock, input record) → [`state`] (FMU state
+//! bytes) → [`ffi`] and [`exports`] (C types, logger, the 34 `fmi2*` functions).
+//! [`xml`] writes `modelDescription.xml` and the GUID from the same table.
+// The C boundary needs raw pointers; every unsafe block says why it holds (SAFETY lines).
+#![allow(unsafe_code)]
+
+pub mod drive;
+pub mod exports;
+pub mod ffi;
+pub mod model;
+pub mod state;
+pub mod table;
+pub mod variables;
+pub mod xml;

@@ -1,0 +1,187 @@
+//! The running drive inside an instance: the engine, the inputs applied to it, and the
+//! record of every input change and communication point that makes it replayable.
+
+use crate::variables::{Input, Output, Role, table};
+use bldc_drive::DriveConfig;
+use bldc_drive::drive::{DriveEngine, build};
+use bldc_drive::drive_core::{EngineError, ParamError, Ticks};
+use bldc_drive::strategies::params::SPEED_CMD_MAX_RPM;
+
+/// One thing that happened to a drive after it was built; replaying the list on a drive
+/// built from the same values reproduces it bit for bit (the simulation is deterministic).
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub enum Event {
+    /// Ran the engine to this master tick (a communication point).
+    RunTo(u64),
+    /// Input variable `vr` changed to this value.
+    Set(u32, f64),
+}
+
+/// Engine + applied inputs + history.
+pub struct Drive {
+    /// The plant and the chip.
+    pub engine: DriveEngine,
+    /// The variable values the drive was built from.
+    pub built_from: Vec<f64>,
+    /// Everything since.
+    pub events: Vec<Event>,
+    /// Inputs in force: speed command, load torque, enable.
+    applied: [f64; 3],
+}
+
+/// The config the variable values describe: defaults, then every parameter, then the
+/// speed command as the config's initial speed command.
+pub fn config_of(values: &[f64]) -> Result<DriveConfig, ParamError> {
+    let mut c = DriveConfig::default();
+    for (v, &x) in table().iter().zip(values) {
+        match v.role {
+            Role::Parameter { set, .. } => set(&mut c, x)?,
+            Role::Input(Input::SpeedRef) => c.control.speed_ref_rpm = clamp_speed(x),
+            _ => {}
+        }
+    }
+    c.validate()?;
+    Ok(c)
+}
+
+/// The speed command the chip can hold (its register is 14 bit).
+pub fn clamp_speed(rpm: f64) -> f64 {
+    rpm.clamp(0.0, SPEED_CMD_MAX_RPM)
+}
+
+fn slot(input: Input) -> usize {
+    match input {
+        Input::SpeedRef => 0,
+        Input::LoadTorque => 1,
+        Input::Enable => 2,
+    }
+}
+
+impl Drive {
+    /// Builds the drive at t = 0 from variable values (parameters and initial inputs).
+    pub fn new(values: &[f64]) -> Result<Drive, ParamError> {
+        let cfg = config_of(values)?;
+        let engine = build(&cfg)?;
+        let mut d = Drive {
+            engine,
+            built_from: values.to_vec(),
+            events: Vec::new(),
+            // What `build` leaves in force: the config's speed command, no load, start held.
+            applied: [cfg.control.speed_ref_rpm, 0.0, 1.0],
+        };
+        for (v, &x) in table().iter().zip(values) {
+            if let Role::Input(i) = v.role {
+                d.apply(i, x);
+            }
+        }
+        Ok(d)
+    }
+
+    /// Applies input `vr` = `x` if it changed, and records it.
+    pub fn set_input(&mut self, vr: u32, input: Input, x: f64) {
+        if self.apply(input, x) {
+            self.events.push(Event::Set(vr, x));
+        }
+    }
+
+    /// Hands a changed input to the plant or the chip; false if nothing changed.
+    ///
+    /// `enable` false drops the chip's start input and holds its reset (bridge off, restart
+    /// count cleared, a given-up drive revived); true releases reset and raises start, so
+    /// the chip debounces it and aligns again. The controller is woken so it sees the
+    /// change even if it was asleep waiting for start.
+    fn apply(&mut self, input: Input, x: f64) -> bool {
+        let x = match input {
+            Input::SpeedRef => clamp_speed(x),
+            Input::Enable => f64::from(u8::from(x != 0.0)),
+            Input::LoadTorque => x,
+        };
+        let s = slot(input);
+        if self.applied[s] == x {
+            return false;
+        }
+        self.applied[s] = x;
+        let e = &mut self.engine;
+        match input {
+            Input::SpeedRef => e.controller.set_speed_ref(x),
+            Input::LoadTorque => e.plant.set_load_torque(x),
+            Input::Enable => {
+                let on = x != 0.0;
+                let now = e.now();
+                e.controller.set_reset(!on);
+                e.controller.set_start(now, on);
+                e.wake_controller();
+            }
+        }
+        true
+    }
+
+    /// Runs the engine to master tick `end` and records the communication point.
+    pub fn run_to(&mut self, end: Ticks) -> Result<(), EngineError> {
+        self.events.push(Event::RunTo(end.0));
+        self.engine.run_until(end, |_, _| {})
+    }
+
+    /// Replays one recorded event.
+    pub fn replay(&mut self, e: Event) -> Result<(), String> {
+        match e {
+            Event::RunTo(t) => self.run_to(Ticks(t)).map_err(|e| e.to_string()),
+            Event::Set(vr, x) => match table().get(vr as usize).map(|v| v.role) {
+                Some(Role::Input(i)) => {
+                    self.set_input(vr, i, x);
+                    Ok(())
+                }
+                _ => Err(format!("recorded input {vr} is not an input")),
+            },
+        }
+    }
+
+    /// An independent copy in the same state (bit-identical continuation).
+    pub fn try_clone(&self) -> Result<Drive, String> {
+        Ok(Drive {
+            engine: bldc_drive::drive::try_clone(&self.engine)?,
+            built_from: self.built_from.clone(),
+            events: self.events.clone(),
+            applied: self.applied,
+        })
+    }
+
+    /// Output values now, one per `outs` entry.
+    pub fn outputs(&self, outs: &[Output], values: &mut [f64]) {
+        let obs = self.engine.plant.observe();
+        let st = self.engine.controller.status();
+        let top = f64::from(self.engine.carrier().top);
+        for (o, v) in outs.iter().zip(values) {
+            *v = match o {
+                Output::SpeedRpm => obs.speed_rpm,
+                Output::SpeedEstRpm => f64::from(st.speed_est_rpm),
+                Output::ThetaEDeg => wrap_deg(obs.theta_e.to_degrees()),
+                Output::IU => obs.i.u,
+                Output::IV => obs.i.v,
+                Output::IW => obs.i.w,
+                Output::TorqueNm => obs.torque_nm,
+                Output::Duty => f64::from(st.duty) / top,
+                Output::State => f64::from(st.state),
+                Output::Restarts => f64::from(st.restarts.min(i32::MAX as u32)),
+            };
+        }
+    }
+}
+
+/// An angle in [0, 360).
+fn wrap_deg(d: f64) -> f64 {
+    let w = d.rem_euclid(360.0);
+    if w >= 360.0 { 0.0 } else { w }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn angles_wrap_into_0_360() {
+        assert_eq!(wrap_deg(-1e-20), 0.0);
+        assert_eq!(wrap_deg(370.0), 10.0);
+        assert_eq!(wrap_deg(-90.0), 270.0);
+    }
+}

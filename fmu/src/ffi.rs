@@ -1,0 +1,200 @@
+//! The C side of an instance: FMI 2.0 types (`fmi2TypesPlatform.h`, `fmi2FunctionTypes.h`),
+//! the copied callbacks, the logger, and the registry that tells live handles from stale
+//! or foreign pointers.
+
+use crate::model::{Fault, Model};
+use std::collections::BTreeSet;
+use std::ffi::{CStr, CString, c_char, c_int, c_void};
+use std::panic::{AssertUnwindSafe, catch_unwind};
+use std::sync::Mutex;
+
+/// `fmi2Status`.
+pub type Status = c_int;
+/// `fmi2OK`.
+pub const OK: Status = 0;
+/// `fmi2Warning`.
+pub const WARNING: Status = 1;
+/// `fmi2Error`.
+pub const ERROR: Status = 3;
+/// `fmi2Fatal`.
+pub const FATAL: Status = 4;
+
+/// `fmi2CallbackLogger`: printf-style, variadic.
+pub type Logger =
+    unsafe extern "C" fn(*mut c_void, *const c_char, Status, *const c_char, *const c_char, ...);
+
+/// `fmi2CallbackFunctions` (field order and C layout as in the header).
+#[repr(C)]
+#[derive(Copy, Clone)]
+pub struct CallbackFunctions {
+    /// Logger; may be NULL (then nothing is logged).
+    pub logger: Option<Logger>,
+    /// Not used: the FMU declares `canNotUseMemoryManagementFunctions`.
+    pub allocate_memory: Option<unsafe extern "C" fn(usize, usize) -> *mut c_void>,
+    /// Not used.
+    pub free_memory: Option<unsafe extern "C" fn(*mut c_void)>,
+    /// Not used (no asynchronous steps).
+    pub step_finished: Option<unsafe extern "C" fn(*mut c_void, Status)>,
+    /// Passed back to the logger.
+    pub component_environment: *mut c_void,
+}
+
+/// Log categories, in the order of [`crate::xml::LOG_CATEGORIES`].
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+pub enum Category {
+    /// `logStatusError`.
+    Error = 0,
+    /// `logStatusWarning`.
+    Warning = 1,
+    /// `logEvents`.
+    Events = 2,
+}
+
+const CATEGORY_C: [&CStr; 3] = [c"logStatusError", c"logStatusWarning", c"logEvents"];
+
+/// One FMU instance behind an `fmi2Component`.
+pub struct Instance {
+    /// The instance name, for the logger.
+    pub name: CString,
+    logger: Option<Logger>,
+    env: *mut c_void,
+    /// Which categories are logged.
+    pub enabled: [bool; 3],
+    /// The safe core.
+    pub model: Model,
+}
+
+impl Instance {
+    /// A new instance; errors and warnings are logged unless switched off, events only with
+    /// `logging_on`.
+    pub fn new(name: CString, callbacks: &CallbackFunctions, logging_on: bool) -> Instance {
+        Instance {
+            name,
+            logger: callbacks.logger,
+            env: callbacks.component_environment,
+            enabled: [true, true, logging_on],
+            model: Model::new(),
+        }
+    }
+
+    /// Sends `msg` to the master's logger under `cat`, if that category is on.
+    pub fn log(&self, status: Status, cat: Category, msg: &str) {
+        if self.enabled[cat as usize] {
+            log_raw(self.logger, self.env, &self.name, status, cat, msg);
+        }
+    }
+
+    /// Logs a fault of `call` and turns it into a status.
+    pub fn report(&self, call: &str, r: Result<(), Fault>) -> Status {
+        match r {
+            Ok(()) => OK,
+            Err(Fault::Warning(m)) => {
+                self.log(WARNING, Category::Warning, &format!("{call}: {m}"));
+                WARNING
+            }
+            Err(Fault::Error(m)) => {
+                self.log(ERROR, Category::Error, &format!("{call}: {m}"));
+                ERROR
+            }
+        }
+    }
+}
+
+/// Calls a C logger with `"%s"` and the message, so the text is never a format string.
+pub(crate) fn log_raw(
+    logger: Option<Logger>,
+    env: *mut c_void,
+    name: &CStr,
+    status: Status,
+    cat: Category,
+    msg: &str,
+) {
+    let Some(logger) = logger else { return };
+    let text = CString::new(msg.replace('\0', " ")).unwrap_or_default();
+    // SAFETY: the logger comes from the master's callback struct and takes
+    // (env, instanceName, status, category, format, ...); every string is NUL-terminated
+    // and outlives the call, and "%s" consumes exactly the one vararg passed.
+    unsafe {
+        logger(
+            env,
+            name.as_ptr(),
+            status,
+            CATEGORY_C[cat as usize].as_ptr(),
+            c"%s".as_ptr(),
+            text.as_ptr(),
+        );
+    }
+}
+
+/// Addresses of live instances and live FMU states: a pointer not in here is refused
+/// instead of dereferenced. This is the only process-wide data; it holds no model state.
+static LIVE: Mutex<BTreeSet<(u8, usize)>> = Mutex::new(BTreeSet::new());
+
+/// Kind of a registered pointer.
+#[derive(Copy, Clone)]
+pub enum Handle {
+    /// An `fmi2Component`.
+    Instance = 0,
+    /// An `fmi2FMUstate`.
+    State = 1,
+}
+
+fn live() -> std::sync::MutexGuard<'static, BTreeSet<(u8, usize)>> {
+    LIVE.lock().unwrap_or_else(|p| p.into_inner())
+}
+
+/// Records `p` as live.
+pub fn register(kind: Handle, p: *mut c_void) {
+    live().insert((kind as u8, p as usize));
+}
+
+/// Forgets `p`; false if it was not live.
+pub fn unregister(kind: Handle, p: *mut c_void) -> bool {
+    live().remove(&(kind as u8, p as usize))
+}
+
+/// Whether `p` is live.
+pub fn is_live(kind: Handle, p: *mut c_void) -> bool {
+    !p.is_null() && live().contains(&(kind as u8, p as usize))
+}
+
+/// Runs `body` with no panic escaping: a panic becomes `on_panic`.
+pub fn guarded<T>(on_panic: T, body: impl FnOnce() -> T) -> T {
+    catch_unwind(AssertUnwindSafe(body)).unwrap_or(on_panic)
+}
+
+/// Runs `body` on the instance behind `c`: refuses a stale or foreign pointer, and turns a
+/// panic into `fmi2Error` with the instance put in the error phase.
+pub fn with_instance(
+    c: *mut c_void,
+    call: &str,
+    body: impl FnOnce(&mut Instance) -> Status,
+) -> Status {
+    if !is_live(Handle::Instance, c) {
+        return ERROR; // nothing to log with: the logger lives in the instance
+    }
+    let p = c.cast::<Instance>();
+    let r = catch_unwind(AssertUnwindSafe(|| {
+        // SAFETY: `c` is live, so it is a `Box<Instance>` from fmi2Instantiate not yet freed;
+        // FMI forbids concurrent calls on one instance, so this is the only reference.
+        body(unsafe { &mut *p })
+    }));
+    r.unwrap_or_else(|payload| {
+        let what = payload
+            .downcast_ref::<&str>()
+            .map(|s| s.to_string())
+            .or_else(|| payload.downcast_ref::<String>().cloned())
+            .unwrap_or_default();
+        guarded(FATAL, || {
+            // SAFETY: as above; the panicking borrow has ended.
+            let inst = unsafe { &mut *p };
+            inst.model.fail();
+            inst.log(
+                ERROR,
+                Category::Error,
+                &format!("{call}: internal error ({what}); the instance is now in the error state: reset it or restore an FMU state"),
+            );
+            ERROR
+        })
+    })
+}

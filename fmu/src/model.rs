@@ -1,0 +1,465 @@
+//! The safe core of one FMU instance: the FMI 2.0 co-simulation state machine, variable
+//! access by value reference, and the communication steps on an exact tick clock. No C
+//! types here, so all of it is unit-tested without loading the library.
+
+use crate::drive::{Drive, clamp_speed};
+use crate::variables::{Input, Kind, Output, Role, by_vr, table};
+use bldc_drive::drive_core::{TICK_S, Ticks};
+
+/// Where an instance is in the co-simulation state machine (FMI 2.0 §4.2.4).
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+pub enum Phase {
+    /// After `fmi2Instantiate` or `fmi2Reset`.
+    Instantiated,
+    /// Between `fmi2EnterInitializationMode` and `fmi2ExitInitializationMode`.
+    InitializationMode,
+    /// Initialized, ready for `fmi2DoStep`.
+    StepComplete,
+    /// After `fmi2Terminate`.
+    Terminated,
+    /// A step failed or an internal error happened: only reset, free or a state restore.
+    Error,
+}
+
+/// Why a call did not simply succeed: the message for the logger names the value and rule.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Fault {
+    /// Done, but not quite as asked (`fmi2Warning`).
+    Warning(String),
+    /// Refused (`fmi2Error`); the instance is unchanged unless the phase says otherwise.
+    Error(String),
+}
+
+/// Which `fmi2Get/Set*` family a call belongs to.
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+pub enum Access {
+    /// `fmi2Get/SetReal`.
+    Real,
+    /// `fmi2Get/SetInteger` (Integer and enumeration variables).
+    Integer,
+    /// `fmi2Get/SetBoolean`.
+    Boolean,
+}
+
+impl Access {
+    fn admits(self, k: Kind) -> bool {
+        matches!(
+            (self, k),
+            (Access::Real, Kind::Real)
+                | (Access::Integer, Kind::Integer | Kind::Enumeration(_))
+                | (Access::Boolean, Kind::Boolean)
+        )
+    }
+}
+
+/// Everything an FMU state captures.
+pub struct Model {
+    /// State-machine phase.
+    pub phase: Phase,
+    /// Value of every variable, indexed by value reference (outputs are not stored).
+    pub values: Vec<f64>,
+    /// `fmi2SetupExperiment` start time [s]: master tick 0 of the engine.
+    pub start_time: f64,
+    /// Stop time, if the master defined one [s].
+    pub stop_time: Option<f64>,
+    /// The current communication point as the master counts it [s].
+    pub time: f64,
+    /// The drive, once built (at initialization, or earlier to answer output queries).
+    pub drive: Option<Drive>,
+}
+
+impl Default for Model {
+    fn default() -> Self {
+        Model::new()
+    }
+}
+
+fn err<T>(msg: impl Into<String>) -> Result<T, Fault> {
+    Err(Fault::Error(msg.into()))
+}
+
+impl Model {
+    /// A fresh instance: every variable at its start value.
+    pub fn new() -> Model {
+        Model {
+            phase: Phase::Instantiated,
+            values: table().iter().map(|v| v.start().unwrap_or(0.0)).collect(),
+            start_time: 0.0,
+            stop_time: None,
+            time: 0.0,
+            drive: None,
+        }
+    }
+
+    /// An independent copy (an FMU state).
+    pub fn try_clone(&self) -> Result<Model, String> {
+        Ok(Model {
+            phase: self.phase,
+            values: self.values.clone(),
+            start_time: self.start_time,
+            stop_time: self.stop_time,
+            time: self.time,
+            drive: self.drive.as_ref().map(Drive::try_clone).transpose()?,
+        })
+    }
+
+    fn require(&self, allowed: &[Phase], call: &str) -> Result<(), Fault> {
+        if allowed.contains(&self.phase) {
+            Ok(())
+        } else {
+            err(format!(
+                "{call} is not allowed in phase {:?} (rule: allowed in {allowed:?})",
+                self.phase
+            ))
+        }
+    }
+
+    /// `fmi2SetupExperiment`.
+    pub fn setup_experiment(&mut self, start: f64, stop: Option<f64>) -> Result<(), Fault> {
+        self.require(&[Phase::Instantiated], "fmi2SetupExperiment")?;
+        if !start.is_finite() {
+            return err(format!("startTime = {start} (rule: must be finite)"));
+        }
+        if let Some(s) = stop
+            && !(s.is_finite() && s >= start)
+        {
+            return err(format!(
+                "stopTime = {s} (rule: finite and >= startTime = {start})"
+            ));
+        }
+        self.start_time = start;
+        self.time = start;
+        self.stop_time = stop;
+        Ok(())
+    }
+
+    /// `fmi2EnterInitializationMode`.
+    pub fn enter_initialization(&mut self) -> Result<(), Fault> {
+        self.require(&[Phase::Instantiated], "fmi2EnterInitializationMode")?;
+        self.phase = Phase::InitializationMode;
+        Ok(())
+    }
+
+    /// `fmi2ExitInitializationMode`: checks every parameter against its rule and builds
+    /// the drive.
+    pub fn exit_initialization(&mut self) -> Result<(), Fault> {
+        self.require(&[Phase::InitializationMode], "fmi2ExitInitializationMode")?;
+        self.ensure_drive()?;
+        self.phase = Phase::StepComplete;
+        Ok(())
+    }
+
+    fn ensure_drive(&mut self) -> Result<&mut Drive, Fault> {
+        if self.drive.is_none() {
+            let d = Drive::new(&self.values).map_err(|e| Fault::Error(e.to_string()))?;
+            self.drive = Some(d);
+        }
+        // Just built or kept: present either way.
+        self.drive
+            .as_mut()
+            .ok_or_else(|| Fault::Error("no drive".into()))
+    }
+
+    /// `fmi2Terminate`.
+    pub fn terminate(&mut self) -> Result<(), Fault> {
+        self.require(&[Phase::StepComplete], "fmi2Terminate")?;
+        self.phase = Phase::Terminated;
+        Ok(())
+    }
+
+    /// `fmi2Reset`: back to the state right after instantiation, every start value again.
+    pub fn reset(&mut self) {
+        *self = Model::new();
+    }
+
+    /// Marks the instance failed (after a panic or an engine error).
+    pub fn fail(&mut self) {
+        self.phase = Phase::Error;
+    }
+
+    /// `fmi2Get*`: values of `vrs` into `out`.
+    pub fn get(&mut self, access: Access, vrs: &[u32], out: &mut [f64]) -> Result<(), Fault> {
+        self.require(
+            &[
+                Phase::InitializationMode,
+                Phase::StepComplete,
+                Phase::Terminated,
+                Phase::Error,
+            ],
+            "fmi2Get*",
+        )?;
+        let mut outs = Vec::new();
+        for (&vr, o) in vrs.iter().zip(out.iter_mut()) {
+            let v = checked(access, vr)?;
+            match v.role {
+                Role::Output(k) => outs.push((k, o)),
+                _ => *o = self.values[vr as usize],
+            }
+        }
+        if !outs.is_empty() {
+            let d = self.ensure_drive()?;
+            let kinds: Vec<Output> = outs.iter().map(|(k, _)| *k).collect();
+            let mut vals = vec![0.0; kinds.len()];
+            d.outputs(&kinds, &mut vals);
+            for ((_, o), v) in outs.into_iter().zip(vals) {
+                *o = v;
+            }
+        }
+        Ok(())
+    }
+
+    /// `fmi2Set*` of one variable. Parameters only before initialization ends; inputs at
+    /// any time before termination (they act from the next step on).
+    pub fn set(&mut self, access: Access, vr: u32, x: f64) -> Result<(), Fault> {
+        let v = checked(access, vr)?;
+        if !x.is_finite() {
+            return err(format!("`{}` = {x} (rule: must be finite)", v.name));
+        }
+        let before_init = matches!(self.phase, Phase::Instantiated | Phase::InitializationMode);
+        match v.role {
+            Role::Output(_) => err(format!("`{}` is an output and cannot be set", v.name)),
+            Role::Parameter { .. } if !before_init => err(format!(
+                "`{}` is a fixed parameter: it can only be set before fmi2ExitInitializationMode (phase is {:?})",
+                v.name, self.phase
+            )),
+            Role::Parameter { .. } => {
+                self.values[vr as usize] = x;
+                self.drive = None;
+                Ok(())
+            }
+            Role::Input(input) => {
+                if !(before_init || self.phase == Phase::StepComplete) {
+                    return err(format!(
+                        "input `{}` cannot be set in phase {:?}",
+                        v.name, self.phase
+                    ));
+                }
+                self.values[vr as usize] = x;
+                match self.drive.as_mut() {
+                    Some(d) if !before_init => d.set_input(vr, input, x),
+                    _ => self.drive = None,
+                }
+                if input == Input::SpeedRef && clamp_speed(x) != x {
+                    return Err(Fault::Warning(format!(
+                        "`speed_ref_rpm` = {x} is outside 0..=16383 rpm (the 14-bit speed register); clamped to {}",
+                        clamp_speed(x)
+                    )));
+                }
+                Ok(())
+            }
+        }
+    }
+
+    /// `fmi2DoStep`: advances from `tc` to `tc + h`. The engine's clock is whole master
+    /// ticks; each target instant is rounded from its absolute time, so steps of any size
+    /// (even below one tick) never accumulate drift.
+    pub fn do_step(&mut self, tc: f64, h: f64) -> Result<(), Fault> {
+        self.require(&[Phase::StepComplete], "fmi2DoStep")?;
+        if !tc.is_finite() {
+            return err(format!(
+                "currentCommunicationPoint = {tc} (rule: must be finite)"
+            ));
+        }
+        if !(h.is_finite() && h > 0.0) {
+            return err(format!(
+                "communicationStepSize = {h} (rule: must be finite and > 0)"
+            ));
+        }
+        // Half a tick: the engine cannot tell instants closer than that apart.
+        let tol = 0.5 * TICK_S;
+        if (tc - self.time).abs() > tol {
+            return err(format!(
+                "currentCommunicationPoint = {tc} but the last step ended at {} (rule: each step starts where the previous one ended)",
+                self.time
+            ));
+        }
+        let end = tc + h;
+        if let Some(stop) = self.stop_time
+            && end > stop + tol
+        {
+            return err(format!(
+                "step to {end} goes beyond stopTime = {stop} (rule: no step past the stop time)"
+            ));
+        }
+        let Some(target) = Ticks::from_seconds(end - self.start_time) else {
+            return err(format!(
+                "step to {end} s is beyond the engine's tick counter"
+            ));
+        };
+        let d = self.ensure_drive()?;
+        if let Err(e) = d.run_to(target) {
+            self.fail();
+            return err(format!("the drive stopped: {e}"));
+        }
+        self.time = end;
+        Ok(())
+    }
+}
+
+/// The variable `vr`, if `access` may read or write it.
+fn checked(access: Access, vr: u32) -> Result<&'static crate::variables::Variable, Fault> {
+    let Some(v) = by_vr(vr) else {
+        return err(format!(
+            "unknown value reference {vr} (rule: 0..={} for this model)",
+            table().len() - 1
+        ));
+    };
+    if !access.admits(v.kind) {
+        return err(format!(
+            "value reference {vr} (`{}`) is {:?}, not accessible with fmi2Get/Set{access:?}",
+            v.name, v.kind
+        ));
+    }
+    Ok(v)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::variables::vr_of;
+
+    fn vr(name: &str) -> u32 {
+        vr_of(name).unwrap()
+    }
+
+    fn initialized() -> Model {
+        let mut m = Model::new();
+        m.setup_experiment(0.0, None).unwrap();
+        m.enter_initialization().unwrap();
+        m.exit_initialization().unwrap();
+        m
+    }
+
+    fn get1(m: &mut Model, name: &str) -> f64 {
+        let mut o = [0.0];
+        let a = match by_vr(vr(name)).unwrap().kind {
+            Kind::Real => Access::Real,
+            Kind::Boolean => Access::Boolean,
+            _ => Access::Integer,
+        };
+        m.get(a, &[vr(name)], &mut o).unwrap();
+        o[0]
+    }
+
+    #[test]
+    fn calls_out_of_order_are_refused_without_changing_the_phase() {
+        let mut m = Model::new();
+        assert!(matches!(m.do_step(0.0, 1e-3), Err(Fault::Error(_))));
+        assert!(m.exit_initialization().is_err());
+        assert!(m.terminate().is_err());
+        assert!(m.get(Access::Real, &[vr("speed_rpm")], &mut [0.0]).is_err());
+        assert_eq!(m.phase, Phase::Instantiated);
+        let mut m = initialized();
+        assert!(m.setup_experiment(0.0, None).is_err());
+        assert!(m.enter_initialization().is_err());
+        assert_eq!(m.phase, Phase::StepComplete);
+    }
+
+    #[test]
+    fn bad_steps_name_the_value_and_rule() {
+        let mut m = initialized();
+        for (tc, h) in [
+            (0.0, -1e-3),
+            (0.0, 0.0),
+            (0.0, f64::NAN),
+            (0.0, f64::INFINITY),
+            (0.5, 1e-3),
+        ] {
+            let Err(Fault::Error(msg)) = m.do_step(tc, h) else {
+                panic!("step ({tc}, {h}) accepted")
+            };
+            assert!(msg.contains("rule"), "{msg}");
+        }
+        assert_eq!(m.phase, Phase::StepComplete);
+        m.do_step(0.0, 1e-3).unwrap();
+    }
+
+    #[test]
+    fn stop_time_is_enforced() {
+        let mut m = Model::new();
+        m.setup_experiment(0.0, Some(2e-3)).unwrap();
+        m.enter_initialization().unwrap();
+        m.exit_initialization().unwrap();
+        m.do_step(0.0, 1e-3).unwrap();
+        m.do_step(1e-3, 1e-3).unwrap();
+        assert!(m.do_step(2e-3, 1e-3).is_err());
+    }
+
+    #[test]
+    fn steps_that_are_not_whole_ticks_do_not_drift() {
+        // 7 ns steps: each ends between ticks; the engine must sit at round(t / 20 ns).
+        let mut m = initialized();
+        let h = 7e-9;
+        let mut t = 0.0;
+        for k in 1..=1000u32 {
+            m.do_step(t, h).unwrap();
+            let end = t + h;
+            t = f64::from(k) * h; // the master's next point, as fmpy computes it
+            let now = m.drive.as_ref().unwrap().engine.now();
+            assert_eq!(now, Ticks::from_seconds(end).unwrap(), "step {k}");
+            assert!(
+                (now.seconds() - t).abs() <= 0.5 * TICK_S + 1e-15,
+                "step {k}"
+            );
+        }
+        assert_eq!(m.drive.as_ref().unwrap().engine.now(), Ticks(350));
+    }
+
+    #[test]
+    fn parameters_are_fixed_after_initialization_and_checked_at_its_end() {
+        let mut m = Model::new();
+        m.enter_initialization().unwrap();
+        m.set(Access::Real, vr("motor.resistance_ohm"), -1.0)
+            .unwrap();
+        let Err(Fault::Error(msg)) = m.exit_initialization() else {
+            panic!()
+        };
+        assert!(
+            msg.contains("motor.resistance_ohm") && msg.contains("-1"),
+            "{msg}"
+        );
+        assert_eq!(m.phase, Phase::InitializationMode);
+        m.set(Access::Real, vr("motor.resistance_ohm"), 2.0)
+            .unwrap();
+        m.exit_initialization().unwrap();
+        assert!(
+            m.set(Access::Real, vr("motor.resistance_ohm"), 3.0)
+                .is_err()
+        );
+        assert_eq!(m.values[vr("motor.resistance_ohm") as usize], 2.0);
+    }
+
+    #[test]
+    fn bad_values_and_references_are_refused() {
+        let mut m = initialized();
+        assert!(m.set(Access::Real, vr("load_torque_nm"), f64::NAN).is_err());
+        assert!(m.set(Access::Real, 10_000, 1.0).is_err());
+        assert!(m.set(Access::Integer, vr("speed_ref_rpm"), 1.0).is_err());
+        assert!(m.set(Access::Real, vr("speed_rpm"), 1.0).is_err());
+        assert!(m.get(Access::Boolean, &[vr("state")], &mut [0.0]).is_err());
+        assert!(matches!(
+            m.set(Access::Real, vr("speed_ref_rpm"), 20_000.0),
+            Err(Fault::Warning(_))
+        ));
+    }
+
+    #[test]
+    fn enable_false_stops_the_drive_and_true_starts_it_again() {
+        let mut m = initialized();
+        let step = |m: &mut Model, to: f64| {
+            while m.time < to - 1e-12 {
+                let t = m.time;
+                m.do_step(t, 1e-3).unwrap();
+            }
+        };
+        step(&mut m, 0.1);
+        assert!(get1(&mut m, "duty") > 0.0, "aligning");
+        m.set(Access::Boolean, vr("enable"), 0.0).unwrap();
+        step(&mut m, 0.2);
+        assert_eq!(get1(&mut m, "duty"), 0.0);
+        assert_eq!(get1(&mut m, "i_u").abs() + get1(&mut m, "i_v").abs(), 0.0);
+        m.set(Access::Boolean, vr("enable"), 1.0).unwrap();
+        step(&mut m, 0.3);
+        assert!(get1(&mut m, "duty") > 0.0, "aligning again");
+    }
+}

@@ -1,0 +1,336 @@
+//! The rows of the variable table ([`crate::variables`]): each input, output and parameter
+//! with its unit, range, description and the config field it reads and writes.
+
+use crate::variables::{EnumType, Input, Kind, Output, Role, Variable};
+use bldc_drive::DriveConfig;
+use bldc_drive::drive_core::ParamError;
+use bldc_drive::drive_core::pwm::PwmSchemeKind;
+use bldc_drive::strategies::params::SPEED_CMD_MAX_RPM;
+use bldc_drive::strategies::{GuardKind, StrategyName};
+
+/// Every built-in strategy with each guard it can take: twelve-step names fix their
+/// guard, six-step-120 takes any.
+pub fn strategy_choices() -> Vec<(StrategyName, Option<GuardKind>)> {
+    const GUARDS: [GuardKind; 4] = [GuardKind::Df, GuardKind::Raw, GuardKind::Nd, GuardKind::Lm];
+    let mut out = Vec::new();
+    for name in StrategyName::ALL {
+        match name.fixed_guard() {
+            Some(_) => out.push((name, None)),
+            None => out.extend(GUARDS.iter().map(|&g| (name, Some(g)))),
+        }
+    }
+    out
+}
+
+pub(crate) fn choice_name(name: StrategyName, guard: Option<GuardKind>) -> String {
+    match guard {
+        Some(g) => format!("{name}-{}", g.as_str()),
+        None => name.to_string(),
+    }
+}
+
+pub(crate) fn get_strategy(c: &DriveConfig) -> f64 {
+    let s = &c.strategy;
+    let guard = s.name.fixed_guard().is_none().then(|| s.guard_kind());
+    strategy_choices()
+        .iter()
+        .position(|&(n, g)| n == s.name && g == guard)
+        .map_or(0.0, |i| (i + 1) as f64)
+}
+
+pub(crate) fn set_strategy(c: &mut DriveConfig, v: f64) -> Result<(), ParamError> {
+    let choices = strategy_choices();
+    let (name, guard) = item(&choices, v).ok_or_else(|| {
+        ParamError::new(
+            "strategy.name",
+            v,
+            "must be an item of the Strategy enumeration (1 ..= number of items)",
+        )
+    })?;
+    c.strategy.name = name;
+    c.strategy.guard = guard;
+    Ok(())
+}
+
+fn get_pwm(c: &DriveConfig) -> f64 {
+    PwmSchemeKind::ALL
+        .iter()
+        .position(|&k| k == c.power_stage.pwm_scheme)
+        .map_or(0.0, |i| (i + 1) as f64)
+}
+
+fn set_pwm(c: &mut DriveConfig, v: f64) -> Result<(), ParamError> {
+    c.power_stage.pwm_scheme = item(&PwmSchemeKind::ALL, v).ok_or_else(|| {
+        ParamError::new(
+            "power_stage.pwm_scheme",
+            v,
+            "must be an item of the PwmScheme enumeration (1 ..= 3)",
+        )
+    })?;
+    Ok(())
+}
+
+/// Item `v` (1-based) of `items`.
+fn item<T: Copy>(items: &[T], v: f64) -> Option<T> {
+    (v >= 1.0 && v.fract() == 0.0)
+        .then(|| items.get(v as usize - 1).copied())
+        .flatten()
+}
+
+/// An unsigned config field from an FMI Integer (which may be negative).
+fn to_u32(field: &'static str, v: f64) -> Result<u32, ParamError> {
+    if v >= 0.0 && v <= f64::from(u32::MAX) && v.fract() == 0.0 {
+        Ok(v as u32)
+    } else {
+        Err(ParamError::new(field, v, "must be a whole number >= 0"))
+    }
+}
+
+/// The conduction angle applies to twelve-step names only; six-step-120 ignores it (so
+/// an importer that writes every start value does not break a six-step selection).
+fn set_conduction(c: &mut DriveConfig, v: f64) -> Result<(), ParamError> {
+    c.strategy.conduction_angle_deg = (c.strategy.name != StrategyName::SixStep120).then_some(v);
+    Ok(())
+}
+
+/// A Real parameter at config path `$($f).+`.
+macro_rules! real {
+    ($name:literal, $($f:ident).+ $([$i:literal])?, $unit:literal, $min:expr, $max:expr, $desc:literal) => {
+        Variable {
+            name: $name,
+            kind: Kind::Real,
+            role: Role::Parameter {
+                get: |c| c.$($f).+ $([$i])?,
+                set: |c, v| {
+                    c.$($f).+ $([$i])? = v;
+                    Ok(())
+                },
+            },
+            unit: $unit,
+            description: $desc,
+            min: $min,
+            max: $max,
+        }
+    };
+}
+
+/// An unsigned Integer parameter at config path `$($f).+`.
+macro_rules! int {
+    ($name:literal, $($f:ident).+, $min:expr, $max:expr, $desc:literal) => {
+        Variable {
+            name: $name,
+            kind: Kind::Integer,
+            role: Role::Parameter {
+                get: |c| c.$($f).+ as f64,
+                set: |c, v| {
+                    c.$($f).+ = to_u32($name, v)?;
+                    Ok(())
+                },
+            },
+            unit: "",
+            description: $desc,
+            min: $min,
+            max: $max,
+        }
+    };
+}
+
+fn var(
+    name: &'static str,
+    kind: Kind,
+    role: Role,
+    unit: &'static str,
+    desc: &'static str,
+) -> Variable {
+    Variable {
+        name,
+        kind,
+        role,
+        unit,
+        description: desc,
+        min: None,
+        max: None,
+    }
+}
+
+fn output(
+    name: &'static str,
+    kind: Kind,
+    o: Output,
+    unit: &'static str,
+    desc: &'static str,
+) -> Variable {
+    var(name, kind, Role::Output(o), unit, desc)
+}
+
+/// The rows, one per variable, in value-reference order (kept as a table, unformatted).
+#[rustfmt::skip]
+pub(crate) fn build_table() -> Vec<Variable> {
+    use Kind::{Boolean, Integer, Real};
+    let z = Some(0.0);
+    vec![
+        // Inputs.
+        Variable {
+            min: Some(0.0),
+            max: Some(SPEED_CMD_MAX_RPM),
+            ..var("speed_ref_rpm", Real, Role::Input(Input::SpeedRef), "rpm",
+                "Speed command ωc (14-bit register: clamped to 0..16383 with a warning)")
+        },
+        var("load_torque_nm", Real, Role::Input(Input::LoadTorque), "N.m",
+            "Load torque on the shaft, opposing positive rotation"),
+        var("enable", Boolean, Role::Input(Input::Enable), "",
+            "Drive enable: true holds the chip's start input (alignment, then closed loop after 31 master clocks); false drops start and holds reset (bridge off, restart count cleared)"),
+        // Outputs.
+        output("speed_rpm", Real, Output::SpeedRpm, "rpm", "True mechanical speed of the rotor"),
+        output("speed_est_rpm", Real, Output::SpeedEstRpm, "rpm",
+            "The chip's FG speed measurement (39 062 500 / N, 0 before the first measurement)"),
+        output("theta_e_deg", Real, Output::ThetaEDeg, "deg",
+            "True electrical angle θe in [0, 360), with e_u = λr·ωe·sin θe"),
+        output("i_u", Real, Output::IU, "A", "Phase current u into the winding"),
+        output("i_v", Real, Output::IV, "A", "Phase current v into the winding"),
+        output("i_w", Real, Output::IW, "A", "Phase current w into the winding"),
+        output("torque_nm", Real, Output::TorqueNm, "N.m", "Electromagnetic torque"),
+        output("duty", Real, Output::Duty, "1",
+            "Voltage command as a fraction 0..1 of the PWM carrier top (duty counts / 2000)"),
+        output("state", Integer, Output::State, "",
+            "Commutation state [1]: 1..12 twelve-step, 1..6 six-step, 0 when off, aligning or starting"),
+        output("restarts", Integer, Output::Restarts, "",
+            "Restarts after step-miss errors so far [count]; cleared while enable is false"),
+        // Strategy.
+        var("strategy.name", Kind::Enumeration(EnumType::Strategy),
+            Role::Parameter { get: get_strategy, set: set_strategy }, "",
+            "Commutation strategy and zero-crossing guard (six-step-120 with any guard; twelve-step names fix theirs)"),
+        Variable { min: Some(120.0), max: Some(180.0), ..var("strategy.conduction_angle_deg", Real,
+            Role::Parameter { get: |c| c.strategy.conduction_deg(), set: set_conduction }, "deg",
+            "Conduction angle per half cycle of the twelve-step strategies (120 <= x < 180); ignored by six-step-120") },
+        int!("strategy.linear_region_deg", strategy.linear_region_deg, Some(1.0), Some(60.0),
+            "Linear-region window before each expected crossing (nd; upper end of lm) [electrical degrees]"),
+        int!("strategy.lm_speed_max_rpm", strategy.lm_speed_max_rpm, z, Some(SPEED_CMD_MAX_RPM),
+            "ωM: speed from which lm uses the full window [rpm]; must exceed strategy.lm_speed_min_rpm"),
+        int!("strategy.lm_speed_min_rpm", strategy.lm_speed_min_rpm, z, None,
+            "ωm: speed at and below which lm uses a 1° window [rpm]"),
+        int!("strategy.filter_samples", strategy.filter_samples, Some(1.0), Some(64.0),
+            "Flip-flops of the digital filter, clocked at 0.64 µs [count]"),
+        // Motor.
+        int!("motor.poles", motor.poles, Some(2.0), Some(200.0), "Number of poles P, even [count]"),
+        real!("motor.flux_linkage_wb", motor.flux_linkage_wb, "Wb", z, None,
+            "PM flux-linkage amplitude per phase λr (> 0)"),
+        real!("motor.self_inductance_h", motor.self_inductance_h, "H", z, None,
+            "Phase self inductance Lp (> 0)"),
+        real!("motor.mutual_inductance_h", motor.mutual_inductance_h, "H", z, None,
+            "Mutual inductance between two phases M"),
+        real!("motor.resistance_ohm", motor.resistance_ohm, "Ohm", z, None, "Phase resistance R (> 0)"),
+        real!("motor.inertia_kgm2", motor.inertia_kgm2, "kg.m2", z, None, "Rotor inertia J (> 0)"),
+        real!("motor.viscous_friction_nms", motor.viscous_friction_nms, "N.m.s/rad", z, None,
+            "Viscous friction Bm"),
+        real!("motor.coulomb_friction_nm", motor.coulomb_friction_nm, "N.m", z, None,
+            "Coulomb bearing drag Tc, applied as Tc·tanh(ωm/ω0)"),
+        real!("motor.coulomb_speed_rad_s", motor.coulomb_speed_rad_s, "rad/s", z, None,
+            "Regularisation speed ω0 of the Coulomb drag (> 0)"),
+        // Power stage.
+        real!("power_stage.supply_v", power_stage.supply_v, "V", Some(1e-3), Some(1000.0),
+            "Supply V_DD"),
+        real!("power_stage.switch_on_resistance_ohm", power_stage.switch_on_resistance_ohm, "Ohm", z,
+            None, "On-resistance of each switch"),
+        real!("power_stage.diode_forward_v", power_stage.diode_forward_v, "V", z, None,
+            "Diode forward voltage"),
+        real!("power_stage.diode_resistance_ohm", power_stage.diode_resistance_ohm, "Ohm", z, None,
+            "Diode slope resistance"),
+        real!("power_stage.shunt_ohm", power_stage.shunt_ohm, "Ohm", z, None,
+            "Current-sense shunt between the low-side switches and ground"),
+        real!("power_stage.dead_time_s", power_stage.dead_time_s, "s", z, Some(10e-6),
+            "Dead time before every switch turn-on, rounded to 20 ns (complementary needs > 0)"),
+        var("power_stage.pwm_scheme", Kind::Enumeration(EnumType::PwmScheme),
+            Role::Parameter { get: get_pwm, set: set_pwm }, "", "Which switches chop"),
+        // Sensing.
+        real!("sensing.current.amplifier_gain", sensing.current.amplifier_gain, "1", z, None,
+            "Shunt amplifier gain (> 0)"),
+        real!("sensing.current.amplifier_max_v", sensing.current.amplifier_max_v, "V", z, None,
+            "Amplifier output swing (> 0)"),
+        real!("sensing.current.filter_cutoff_hz", sensing.current.filter_cutoff_hz, "Hz", Some(10.0),
+            Some(10e6), "Anti-alias low-pass cut-off"),
+        int!("sensing.current.adc_bits", sensing.current.adc_bits, Some(1.0), Some(16.0),
+            "ADC resolution [bits]"),
+        real!("sensing.current.adc_full_scale_v", sensing.current.adc_full_scale_v, "V", z, None,
+            "ADC full scale (> 0)"),
+        real!("sensing.current.adc_conversion_s", sensing.current.adc_conversion_s, "s", Some(0.1e-6),
+            Some(1.0), "ADC conversion time"),
+        real!("sensing.comparator.phase_filter_tau_s", sensing.comparator.phase_filter_tau_s, "s",
+            Some(1e-9), Some(1e-3), "RC time constant of the phase-terminal paths"),
+        real!("sensing.comparator.neutral_filter_tau_s", sensing.comparator.neutral_filter_tau_s, "s",
+            Some(1e-9), Some(1e-3), "RC time constant of the neutral path"),
+        real!("sensing.comparator.offset_v.u", sensing.comparator.offset_v.u, "V", Some(-1.0),
+            Some(1.0), "Input offset of comparator u"),
+        real!("sensing.comparator.offset_v.v", sensing.comparator.offset_v.v, "V", Some(-1.0),
+            Some(1.0), "Input offset of comparator v"),
+        real!("sensing.comparator.offset_v.w", sensing.comparator.offset_v.w, "V", Some(-1.0),
+            Some(1.0), "Input offset of comparator w"),
+        real!("sensing.comparator.hysteresis_v", sensing.comparator.hysteresis_v, "V", z, Some(1.0),
+            "Comparator hysteresis, full width"),
+        real!("sensing.comparator.delay_s", sensing.comparator.delay_s, "s", z, Some(100e-6),
+            "Comparator propagation delay, rounded to 20 ns"),
+        real!("sensing.comparator.noise_v", sensing.comparator.noise_v, "V", z, Some(1.0),
+            "Peak input-referred comparator noise"),
+        real!("sensing.comparator.noise_interval_s", sensing.comparator.noise_interval_s, "s",
+            Some(20e-9), Some(1e-3), "Interval between independent noise samples"),
+        real!("sensing.comparator.ring_gain", sensing.comparator.ring_gain, "1", z, Some(1.0),
+            "Switching ringing coupled into the comparator inputs per volt of step"),
+        real!("sensing.comparator.ring_frequency_hz", sensing.comparator.ring_frequency_hz, "Hz",
+            Some(1e3), Some(1e9), "Ringing frequency"),
+        real!("sensing.comparator.ring_decay_s", sensing.comparator.ring_decay_s, "s", Some(1e-9),
+            Some(1e-3), "Ringing decay time constant"),
+        Variable {
+            min: z,
+            max: Some(f64::from(i32::MAX)),
+            ..var("seed", Integer, Role::Parameter {
+                get: |c| c.sensing.seed as f64,
+                set: |c, v| {
+                    c.sensing.seed = u64::from(to_u32("seed", v)?);
+                    Ok(())
+                },
+            }, "", "Seed of the comparator noise (sensing.seed); the same seed reproduces every glitch")
+        },
+        // Solver.
+        real!("solver.max_step_s", solver.max_step_s, "s", Some(0.1e-6), Some(100e-6),
+            "Longest RK4 step of the plant between events"),
+        // Control.
+        real!("control.speed_kp", control.speed_kp, "A/rpm", z, None, "Speed PI proportional gain"),
+        real!("control.speed_ki", control.speed_ki, "A/rpm", z, None,
+            "Speed PI integral gain per PI update (5.24 ms)"),
+        real!("control.current_kp", control.current_kp, "1/A", z, None,
+            "Current PI proportional gain [carrier counts/A]"),
+        real!("control.current_ki", control.current_ki, "1/A", z, None,
+            "Current PI integral gain per PI update [carrier counts/A]"),
+        real!("control.current_limit_a", control.current_limit_a, "A", z, Some(10.0),
+            "Current command limit (> 0)"),
+        real!("control.start_current_a", control.start_current_a, "A", z, Some(10.0),
+            "Current command from the hand-over to the first speed measurement (<= control.current_limit_a)"),
+        var("control.anti_windup", Boolean, Role::Parameter {
+            get: |c| f64::from(u8::from(c.control.anti_windup)),
+            set: |c, v| {
+                c.control.anti_windup = v != 0.0;
+                Ok(())
+            },
+        }, "", "Back-calculation anti-windup on the current PI"),
+        real!("control.anti_windup_gain", control.anti_windup_gain, "1", z, Some(1024.0),
+            "Back-calculation gain k_s"),
+        real!("control.startup_duty", control.startup_duty, "1", z, Some(1.0),
+            "Voltage command during alignment and start-up, fraction of the carrier top (> 0)"),
+        real!("control.align_s[0]", control.align_s[0], "s", Some(327.68e-6), Some(10.0),
+            "Duration of alignment step u→v"),
+        real!("control.align_s[1]", control.align_s[1], "s", Some(327.68e-6), Some(10.0),
+            "Duration of alignment step v→w"),
+        real!("control.align_s[2]", control.align_s[2], "s", Some(327.68e-6), Some(10.0),
+            "Duration of alignment step v→u"),
+        real!("control.handover_t60_s", control.handover_t60_s, "s", Some(1e-5), Some(0.02),
+            "Assumed first 60° interval after the hand-over to closed loop"),
+        real!("control.step_miss_s", control.step_miss_s, "s", Some(0.001), Some(10.0),
+            "Step-miss limit: FG unchanged longer than this restarts the drive"),
+        int!("control.max_restarts", control.max_restarts, z, Some(1000.0),
+            "Restarts allowed before the drive gives up [count]"),
+        int!("control.speed_periods", control.speed_periods, Some(1.0), Some(100.0),
+            "FG periods per speed measurement k [count]"),
+        int!("control.speed_counter_bits", control.speed_counter_bits, Some(8.0), Some(32.0),
+            "Width of the speed counter [bits]"),
+    ]
+}

@@ -1,0 +1,266 @@
+//! The variable table: every FMU variable, its value reference (its index here), type,
+//! unit, description, range, and where it lives in [`DriveConfig`] or the running drive.
+//!
+//! It is the one source of truth: the exported functions look values up here, and
+//! `modelDescription.xml` and the GUID are generated from it ([`crate::xml`]). Start
+//! values of parameters are read from `DriveConfig::default()`, never written twice.
+
+use crate::table::{build_table, choice_name, strategy_choices};
+use bldc_drive::DriveConfig;
+use bldc_drive::drive_core::ParamError;
+use bldc_drive::drive_core::pwm::PwmSchemeKind;
+use std::sync::OnceLock;
+
+/// Reads a value from a config (as the f64 every variable is stored as).
+pub type Getter = fn(&DriveConfig) -> f64;
+/// Writes a value into a config; fails with the field, the value and the rule.
+pub type Setter = fn(&mut DriveConfig, f64) -> Result<(), ParamError>;
+
+/// FMI base type of a variable.
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+pub enum Kind {
+    /// `fmi2Real`.
+    Real,
+    /// `fmi2Integer`.
+    Integer,
+    /// `fmi2Boolean`.
+    Boolean,
+    /// An enumeration (accessed with `fmi2Get/SetInteger`), items numbered from 1.
+    Enumeration(EnumType),
+}
+
+/// The enumeration types of the model.
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+pub enum EnumType {
+    /// Built-in strategy and guard ([`strategy_choices`]).
+    Strategy,
+    /// PWM scheme ([`PwmSchemeKind::ALL`]).
+    PwmScheme,
+}
+
+impl EnumType {
+    /// Name of the `SimpleType` in the model description.
+    pub fn type_name(self) -> &'static str {
+        match self {
+            EnumType::Strategy => "Strategy",
+            EnumType::PwmScheme => "PwmScheme",
+        }
+    }
+
+    /// Item names, in value order (value = position + 1).
+    pub fn items(self) -> Vec<String> {
+        match self {
+            EnumType::Strategy => strategy_choices()
+                .iter()
+                .map(|&(n, g)| choice_name(n, g))
+                .collect(),
+            EnumType::PwmScheme => PwmSchemeKind::ALL
+                .iter()
+                .map(|k| k.name().to_string())
+                .collect(),
+        }
+    }
+}
+
+/// A drive input, set by the master between steps.
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+pub enum Input {
+    /// Speed command [rpm] → `Strategy::set_speed_ref`.
+    SpeedRef,
+    /// Load torque on the shaft [N·m] → `BldcPlant::set_load_torque`.
+    LoadTorque,
+    /// Drive enable → the chip's start input (and reset while low).
+    Enable,
+}
+
+/// A drive output, read from the plant's observation or the chip's status.
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+pub enum Output {
+    /// True mechanical speed [rpm].
+    SpeedRpm,
+    /// The chip's FG speed measurement [rpm].
+    SpeedEstRpm,
+    /// Electrical angle θe [deg] in 0..360.
+    ThetaEDeg,
+    /// Phase current u [A].
+    IU,
+    /// Phase current v [A].
+    IV,
+    /// Phase current w [A].
+    IW,
+    /// Electromagnetic torque [N·m].
+    TorqueNm,
+    /// PWM duty, fraction 0..1 of the carrier top.
+    Duty,
+    /// Commutation state.
+    State,
+    /// Restarts so far.
+    Restarts,
+}
+
+/// What a variable is and where its value comes from.
+#[derive(Copy, Clone, Debug)]
+pub enum Role {
+    /// Fixed after initialization; lives in the config the drive is built from.
+    Parameter {
+        /// Reads it (the start value is `get(&DriveConfig::default())`).
+        get: Getter,
+        /// Writes it at `fmi2ExitInitializationMode`.
+        set: Setter,
+    },
+    /// Set by the master at any communication point.
+    Input(Input),
+    /// Computed by the drive.
+    Output(Output),
+}
+
+/// One FMU variable.
+#[derive(Copy, Clone, Debug)]
+pub struct Variable {
+    /// Unique name (structured: the dotted config path for parameters).
+    pub name: &'static str,
+    /// FMI type.
+    pub kind: Kind,
+    /// Role and value source.
+    pub role: Role,
+    /// Unit (Real only; other types carry it in the description).
+    pub unit: &'static str,
+    /// One-line description.
+    pub description: &'static str,
+    /// Lower bound (inclusive, as FMI defines it), where a rule has one.
+    pub min: Option<f64>,
+    /// Upper bound, where a rule has one.
+    pub max: Option<f64>,
+}
+
+impl Variable {
+    /// The start value: defaults of the config for parameters and the speed command.
+    pub fn start(&self) -> Option<f64> {
+        match self.role {
+            Role::Parameter { get, .. } => Some(get(&DriveConfig::default())),
+            Role::Input(Input::SpeedRef) => Some(DriveConfig::default().control.speed_ref_rpm),
+            Role::Input(Input::LoadTorque) => Some(0.0),
+            Role::Input(Input::Enable) => Some(1.0),
+            Role::Output(_) => None,
+        }
+    }
+}
+
+/// The variable table; the value reference of a variable is its index.
+pub fn table() -> &'static [Variable] {
+    static TABLE: OnceLock<Vec<Variable>> = OnceLock::new();
+    TABLE.get_or_init(build_table)
+}
+
+/// The variable with value reference `vr`.
+pub fn by_vr(vr: u32) -> Option<&'static Variable> {
+    table().get(vr as usize)
+}
+
+/// The value reference of `name`.
+pub fn vr_of(name: &str) -> Option<u32> {
+    table()
+        .iter()
+        .position(|v| v.name == name)
+        .map(|i| i as u32)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::table::{get_strategy, set_strategy};
+
+    #[test]
+    fn names_are_unique_and_inputs_outputs_are_the_issues_names() {
+        let t = table();
+        let mut names: Vec<_> = t.iter().map(|v| v.name).collect();
+        names.sort();
+        names.dedup();
+        assert_eq!(names.len(), t.len());
+        let of = |pick: fn(&Role) -> bool| -> Vec<&str> {
+            t.iter().filter(|v| pick(&v.role)).map(|v| v.name).collect()
+        };
+        assert_eq!(
+            of(|r| matches!(r, Role::Input(_))),
+            ["speed_ref_rpm", "load_torque_nm", "enable"]
+        );
+        assert_eq!(
+            of(|r| matches!(r, Role::Output(_))),
+            [
+                "speed_rpm",
+                "speed_est_rpm",
+                "theta_e_deg",
+                "i_u",
+                "i_v",
+                "i_w",
+                "torque_nm",
+                "duty",
+                "state",
+                "restarts"
+            ]
+        );
+    }
+
+    #[test]
+    fn every_real_has_a_unit_and_every_variable_a_description() {
+        for v in table() {
+            assert!(!v.description.is_empty(), "{}", v.name);
+            assert_eq!(v.kind == Kind::Real, !v.unit.is_empty(), "{}", v.name);
+        }
+    }
+
+    #[test]
+    fn parameters_round_trip_their_defaults_and_defaults_lie_in_range() {
+        let d = DriveConfig::default();
+        let mut c = DriveConfig::default();
+        for v in table() {
+            if let Role::Parameter { get, set } = v.role {
+                let x = get(&d);
+                set(&mut c, x).unwrap();
+                assert!(v.min.is_none_or(|m| x >= m), "{} = {x}", v.name);
+                assert!(v.max.is_none_or(|m| x <= m), "{} = {x}", v.name);
+            }
+        }
+        // The conduction angle becomes explicit; everything else is unchanged.
+        c.strategy.conduction_angle_deg = None;
+        assert_eq!(c, d);
+    }
+
+    #[test]
+    fn the_config_rules_reject_values_outside_the_declared_range() {
+        // Guards the table against drifting from the rules: one step outside a declared
+        // bound must fail DriveConfig::validate (the rules are the authority).
+        for v in table() {
+            let Role::Parameter { set, .. } = v.role else {
+                continue;
+            };
+            let step = if v.kind == Kind::Real { 1e-6 } else { 1.0 };
+            for (bound, outside) in [(v.min, -1.0), (v.max, 1.0)] {
+                let Some(b) = bound else { continue };
+                if v.name == "seed" {
+                    continue; // the seed's bounds are the FMI Integer's, not a rule
+                }
+                let x = b + outside * step * b.abs().max(1.0);
+                let mut c = DriveConfig::default();
+                let rejected = set(&mut c, x).is_err() || c.validate().is_err();
+                assert!(rejected, "{} = {x} was accepted", v.name);
+            }
+        }
+    }
+
+    #[test]
+    fn every_strategy_and_guard_is_an_item() {
+        let items = EnumType::Strategy.items();
+        assert_eq!(items.len(), 8);
+        assert_eq!(items[0], "six-step-120-df");
+        for (i, _) in items.iter().enumerate() {
+            let mut c = DriveConfig::default();
+            set_strategy(&mut c, (i + 1) as f64).unwrap();
+            c.validate().unwrap();
+            assert_eq!(get_strategy(&c), (i + 1) as f64);
+        }
+        let mut c = DriveConfig::default();
+        assert!(set_strategy(&mut c, 0.0).is_err());
+        assert!(set_strategy(&mut c, 9.0).is_err());
+    }
+}

@@ -1,0 +1,26 @@
+"""Paths shared by the FMU test scripts (run by scripts/test.sh after `cargo xtask fmu`)."""
+
+import os
+import sys
+
+ROOT = os.path.abspath(os.path.join(os.path.dirname(__file__), "..", ".."))
+TARGET = os.environ.get("CARGO_TARGET_DIR", os.path.join(ROOT, "target"))
+FMU = os.path.join(TARGET, "fmu", "BldcDrive.fmu")
+NATIVE_TRACE = os.path.join(TARGET, "release", "native-trace")
+
+
+def require_built():
+    """Fails (never skips) when the FMU has not been packaged."""
+    for path in (FMU, NATIVE_TRACE):
+        if not os.path.exists(path):
+            sys.exit(f"FAIL: {path} is missing: run `cargo xtask fmu` first")
+
+
+def check(cond, what):
+    """Counts a failed check and says what it was; the script exits non-zero at the end."""
+    print(("ok   " if cond else "FAIL ") + what)
+    if not cond:
+        check.failures += 1
+
+
+check.failures = 0
