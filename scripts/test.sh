@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
-# Runs every test of the workspace. Installs nothing beyond the Rust toolchain today; tools
-# needed by later test suites (e.g. a Python venv for FMU validation) are set up here too.
+# Runs every test of the workspace: the Rust tests, then the fmpy checks of the packaged FMU.
+# Everything beyond the Rust toolchain and python3 is installed here when missing.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 if ! command -v cargo >/dev/null 2>&1; then
