@@ -86,19 +86,35 @@ impl History {
     }
 }
 
-/// One channel's filter segments over the step being processed.
+/// One channel's noise-free input over the step being processed, in closed form:
+/// s(τ) = l + β·τ + A·e^{−τ/τp} − B·e^{−τ/τn} (ringing and noise come on top).
 #[derive(Clone, Debug)]
 struct Channel {
     x: Phase,
-    /// Phase-path filter.
-    fx: Foh,
-    /// Neutral-path filter.
-    fn_: Foh,
     /// Start of the step [s].
     t0: f64,
-    /// The stationary point of A·e^{−τ/τp} − B·e^{−τ/τn} and its value, once computed:
-    /// it depends only on the step, not on the interval being bounded.
-    stationary: std::cell::Cell<Option<(f64, f64)>>,
+    /// l = α − offset [V], β [V/s], A and B [V] (the filter transients at τ = 0).
+    l: f64,
+    beta: f64,
+    a: f64,
+    b: f64,
+    /// The value of A·e^{−τ/τp} − B·e^{−τ/τn} at its stationary point, once computed: it
+    /// depends only on the step, not on the interval being bounded.
+    stationary: std::cell::Cell<Option<f64>>,
+}
+
+impl Channel {
+    fn new(x: Phase, t0: f64, fx: &Foh, fn_: &Foh, offset: f64) -> Self {
+        Channel {
+            x,
+            t0,
+            l: fx.a - fn_.a - fx.b * fx.tau + fn_.b * fn_.tau - offset,
+            beta: fx.b - fn_.b,
+            a: fx.c,
+            b: fn_.c,
+            stationary: std::cell::Cell::new(None),
+        }
+    }
 }
 
 /// The three comparators, their filters, the coupled ringing and the noise.
@@ -121,7 +137,8 @@ pub struct ComparatorBank {
     q_ring: (f64, f64),
     /// The decay factors over one noise interval (filters, ringing envelope).
     q_seg: (f64, f64),
-    q_seg_ring: f64,
+    /// The ringing phasor's rotation and decay over one noise interval.
+    q_seg_rot: (f64, f64),
     /// Last step length and its decay factors e^{−h/τp}, e^{−h/τn}.
     decay_cache: (f64, f64, f64),
     /// Decay factors over one noise interval less one tick.
@@ -177,7 +194,12 @@ impl ComparatorBank {
                     (-n / p.neutral_filter_tau_s).exp(),
                 )
             },
-            q_seg_ring: (-(p.noise_interval().0 as f64) * TICK_S / p.ring_decay_s).exp(),
+            q_seg_rot: {
+                let n = p.noise_interval().0 as f64 * TICK_S;
+                let d = (-n / p.ring_decay_s).exp();
+                let (sn, cs) = (std::f64::consts::TAU * p.ring_frequency_hz * n).sin_cos();
+                (d * cs, d * sn)
+            },
             q_seg: {
                 let n = p.noise_interval().0 as f64 * TICK_S;
                 (
@@ -249,35 +271,33 @@ impl ComparatorBank {
         if h <= 0.0 {
             return;
         }
-        if self.ring_mag != 0.0 && self.ring_envelope(t0) < 1e-9 {
+        let mut env0 = self.ring_envelope(t0);
+        if self.ring_mag != 0.0 && env0 < 1e-9 {
             // Decayed below a nanovolt: drop it so later bounds skip the envelope.
             self.ring = (0.0, 0.0);
             self.ring_mag = 0.0;
+            env0 = 0.0;
         }
         let fn_ = Foh::new(self.y_n, vn0, vn1, h, self.tau_n);
         let k_start = (t0 / TICK_S + 1e-6).floor() as u64 + 1;
         let k_end = (t1 / TICK_S + 1e-6).floor() as u64;
-        let env0 = self.ring_envelope(t0);
         // Steps repeat their lengths (PWM half-periods, the solver's longest step): cache.
         if self.decay_cache.0 != h {
             self.decay_cache = (h, (-h / self.tau_p).exp(), (-h / self.tau_n).exp());
         }
         let (_, eh_p, eh_n) = self.decay_cache;
-        let w = [1.0, 1.0, eh_p, eh_n, env0];
+        let w = [1.0, 1.0, eh_p, eh_n];
         // Decay factors at the first and last tick of the step, shared by the channels.
         let on_ticks = ((t0 / TICK_S).round() - t0 / TICK_S).abs() < 1e-6
             && ((t1 / TICK_S).round() - t1 / TICK_S).abs() < 1e-6;
         let mut ticks: Option<[f64; 4]> = on_ticks.then_some([self.q_p, self.q_n, eh_p, eh_n]);
+        // The ringing phasor at the first tick, shared by the channels too.
+        let mut z0: Option<(f64, f64)> = None;
         for x in Phase::ALL {
             let fx = Foh::new(self.y.get(x), v0.get(x), v1.get(x), h, self.tau_p);
-            let c = Channel {
-                x,
-                fx,
-                fn_,
-                t0,
-                stationary: std::cell::Cell::new(None),
-            };
-            if k_start <= k_end && self.may_toggle(&c, 0.0, h, w, -self.noise_a, self.noise_a) {
+            let c = Channel::new(x, t0, &fx, &fn_, self.offset.get(x));
+            if k_start <= k_end && self.may_toggle(&c, 0.0, h, w, env0, -self.noise_a, self.noise_a)
+            {
                 let d = *ticks.get_or_insert_with(|| {
                     let (ta, tb) = (k_start as f64 * TICK_S - t0, k_end as f64 * TICK_S - t0);
                     [
@@ -287,7 +307,8 @@ impl ComparatorBank {
                         (-tb / self.tau_n).exp(),
                     ]
                 });
-                self.scan(&c, k_start, k_end, d, env0);
+                let z = *z0.get_or_insert_with(|| self.ring_at_phasor(k_start as f64 * TICK_S));
+                self.scan(&c, k_start, k_end, d, z);
             }
             *self.y.get_mut(x) = fx.at_decayed(h, w[2]);
             self.last.0[x.index()] = fx;
@@ -324,47 +345,51 @@ impl ComparatorBank {
     }
 
     /// Walks the ticks `k_start..=k_end` of the step where a toggle is possible.
-    /// `d` = decay factors (e^{−τ/τp}, e^{−τ/τn}) at the first tick, then at the last.
-    fn scan(&mut self, c: &Channel, k_start: u64, k_end: u64, d: [f64; 4], env0: f64) {
-        let (x, fx, fn_, t0) = (c.x, &c.fx, &c.fn_, c.t0);
+    /// `d` = decay factors (e^{−τ/τp}, e^{−τ/τn}) at the first tick, then at the last;
+    /// `z` = the ringing phasor at the first tick.
+    fn scan(&mut self, c: &Channel, k_start: u64, k_end: u64, d: [f64; 4], z: (f64, f64)) {
+        let x = c.x;
         let ch = x.index();
         let key = noise::channel_key(self.seed, ch as u64);
         self.scans += 1;
         let mut k = k_start;
-        let t_end = k_end as f64 * TICK_S - t0;
+        let t_end = k_end as f64 * TICK_S - c.t0;
         let w_end = [d[2], d[3]];
-        let seg_q = self.q_seg;
-        // Decay factors at the current tick, carried from segment to segment; the ringing
-        // envelope at the step start bounds it at every later tick.
+        // Decay factors and the ringing phasor at the current tick, carried from segment to
+        // segment by multiplication. The phasor's magnitude is the ringing envelope, which
+        // bounds the ringing from there on.
         let (mut dp, mut dn) = (d[0], d[1]);
-        let mut env = env0;
+        let mut z = z;
         let mut check_rest = true;
         let mut rest = (0.0, 0.0);
-        let mut quiet_segments = 0u32;
+        // Quiet segments before the rest of the step is bounded again: few at first (the
+        // ringing and the filter transients decay within a few segments), doubling while the
+        // bound keeps failing to end the scan.
+        let mut quiet = 0u32;
+        let mut recheck = 2u32;
         let mut m = k / self.noise_n; // noise sample index, one per segment
         while k <= k_end {
-            let ta = k as f64 * TICK_S - t0;
-            if check_rest || quiet_segments >= 16 {
-                // Bound the rest of the step (tightens as transients decay); stop if quiet.
-                let w = [dp, dn, w_end[0], w_end[1], env];
-                match self.range(c, ta, t_end, w, -self.noise_a, self.noise_a) {
-                    Some(r) if self.can_toggle(x, r.0, r.1, -self.noise_a, self.noise_a) => {
-                        rest = r
-                    }
-                    _ => return,
+            let ta = k as f64 * TICK_S - c.t0;
+            let env = (z.0 * z.0 + z.1 * z.1).sqrt();
+            if check_rest || quiet >= recheck {
+                recheck = if check_rest { 2 } else { (2 * recheck).min(64) };
+                let r = self.range(c, ta, t_end, [dp, dn, w_end[0], w_end[1]], env);
+                if !self.can_toggle(x, r.0, r.1, -self.noise_a, self.noise_a) {
+                    return;
                 }
+                rest = r;
                 check_rest = false;
-                quiet_segments = 0;
+                quiet = 0;
             }
             let seg_end = ((m + 1) * self.noise_n - 1).min(k_end);
             let n = noise::uniform_keyed(key, m, self.noise_a);
             let span = seg_end - k;
             let full = span + 1 == self.noise_n;
-            quiet_segments += 1;
+            quiet += 1;
             self.segments += 1;
             // Cheap test against the rest-of-step range before bounding this segment.
             let busy = self.can_toggle(x, rest.0, rest.1, n, n) && {
-                let tb = seg_end as f64 * TICK_S - t0;
+                let tb = seg_end as f64 * TICK_S - c.t0;
                 let (dpb, dnb) = if full {
                     (dp * self.q_seg_m1.0, dn * self.q_seg_m1.1)
                 } else {
@@ -373,22 +398,22 @@ impl ComparatorBank {
                         dn * self.q_n.powi(span as i32),
                     )
                 };
-                self.may_toggle(c, ta, tb, [dp, dn, dpb, dnb, env], n, n)
+                self.may_toggle(c, ta, tb, [dp, dn, dpb, dnb], env, n, n)
             };
             if busy {
                 // Walk the ticks with per-tick factors instead of exp/sin at every tick.
                 self.ticks_scanned += span + 1;
                 check_rest = true; // after a busy segment, see whether the rest is quiet
-                let mut ep = fx.c * dp;
-                let mut en = fn_.c * dn;
-                let mut z = self.ring_at_phasor(t0 + ta);
-                let lin0 = fx.a - fn_.a - fx.b * fx.tau + fn_.b * fn_.tau - self.offset.get(x) + n;
-                let slope = fx.b - fn_.b;
+                let mut ep = c.a * dp;
+                let mut en = c.b * dn;
+                let mut zk = z;
+                let lin0 = c.l + n;
                 let (half_h, qp, qn, qr) = (self.half_h, self.q_p, self.q_n, self.q_ring);
+                let ringing = z != (0.0, 0.0);
                 let mut out = self.out.get(x);
-                let mut tau = k as f64 * TICK_S - t0;
+                let mut tau = ta;
                 for kk in k..=seg_end {
-                    let s = lin0 + slope * tau + ep - en + z.1;
+                    let s = lin0 + c.beta * tau + ep - en + zk.1;
                     if (!out && s > half_h) || (out && s < -half_h) {
                         out = !out;
                         self.hist[ch].push(kk, out);
@@ -397,34 +422,49 @@ impl ComparatorBank {
                     }
                     ep *= qp;
                     en *= qn;
-                    z = (z.0 * qr.0 - z.1 * qr.1, z.0 * qr.1 + z.1 * qr.0);
+                    if ringing {
+                        zk = (zk.0 * qr.0 - zk.1 * qr.1, zk.0 * qr.1 + zk.1 * qr.0);
+                    }
                     tau += TICK_S;
                 }
                 *self.out.get_mut(x) = out;
             }
-            if full {
-                dp *= seg_q.0;
-                dn *= seg_q.1;
-            } else {
-                dp *= self.q_p.powi(span as i32 + 1);
-                dn *= self.q_n.powi(span as i32 + 1);
-            }
-            env *= if span + 1 == self.noise_n {
-                self.q_seg_ring
-            } else {
-                (-((span + 1) as f64) * TICK_S / self.ring_decay).exp()
-            };
             k = seg_end + 1;
             m += 1;
+            if full {
+                dp *= self.q_seg.0;
+                dn *= self.q_seg.1;
+                let q = self.q_seg_rot;
+                z = (z.0 * q.0 - z.1 * q.1, z.0 * q.1 + z.1 * q.0);
+            } else if k <= k_end {
+                dp *= self.q_p.powi(span as i32 + 1);
+                dn *= self.q_n.powi(span as i32 + 1);
+                z = self.ring_at_phasor(k as f64 * TICK_S);
+            }
         }
     }
 
     /// Whether the output may toggle somewhere in τ ∈ [ta, tb], given noise in [n_lo, n_hi].
-    /// `w` holds the decay factors (e^{−ta/τp}, e^{−ta/τn}, e^{−tb/τp}, e^{−tb/τn}) and a bound
-    /// on the ringing envelope from ta on.
-    fn may_toggle(&self, c: &Channel, ta: f64, tb: f64, w: [f64; 5], n_lo: f64, n_hi: f64) -> bool {
-        match self.range(c, ta, tb, w, n_lo, n_hi) {
-            Some((lo, hi)) => self.can_toggle(c.x, lo, hi, n_lo, n_hi),
+    /// `w` holds the decay factors (e^{−ta/τp}, e^{−ta/τn}, e^{−tb/τp}, e^{−tb/τn}); `env`
+    /// bounds the ringing from ta on.
+    #[allow(clippy::too_many_arguments)]
+    fn may_toggle(
+        &self,
+        c: &Channel,
+        ta: f64,
+        tb: f64,
+        w: [f64; 4],
+        env: f64,
+        n_lo: f64,
+        n_hi: f64,
+    ) -> bool {
+        // The ends first: the stationary point can only widen the range.
+        let (lo, hi) = Self::range_ends(c, ta, tb, w, env);
+        if self.can_toggle(c.x, lo, hi, n_lo, n_hi) {
+            return true;
+        }
+        match self.stationary_within(c, w) {
+            Some(g) => self.can_toggle(c.x, lo.min(lo + g), hi.max(hi + g), n_lo, n_hi),
             None => false,
         }
     }
@@ -439,60 +479,48 @@ impl ComparatorBank {
         }
     }
 
-    /// Range of the noise-free signal (offset and ringing envelope included) over τ ∈ [ta, tb],
-    /// or `None` when a cheap bound already shows that no toggle is possible with noise in
-    /// [n_lo, n_hi].
-    fn range(
-        &self,
-        c: &Channel,
-        ta: f64,
-        tb: f64,
-        w: [f64; 5],
-        n_lo: f64,
-        n_hi: f64,
-    ) -> Option<(f64, f64)> {
-        let (x, fx, fn_) = (c.x, &c.fx, &c.fn_);
-        // s(τ) = α + β·τ + A·e^{−τ/τp} − B·e^{−τ/τn} + ring − offset (+ noise)
-        let alpha = fx.a - fn_.a - fx.b * fx.tau + fn_.b * fn_.tau;
-        let beta = fx.b - fn_.b;
-        let (l1, l2) = (alpha + beta * ta, alpha + beta * tb);
-        let (a, b) = (fx.c * w[0], fn_.c * w[1]); // transients at ta; they only decay after
-        let env = w[4];
-        let off = self.offset.get(x);
-        let (lmin, lmax) = (l1.min(l2) - off - env, l1.max(l2) - off + env);
-        // Crude bound first: each decaying term lies between 0 and its value at ta.
-        if !self.can_toggle(
-            x,
-            lmin + a.min(0.0) - b.max(0.0),
-            lmax + a.max(0.0) - b.min(0.0),
-            n_lo,
-            n_hi,
-        ) {
+    /// Range of the noise-free signal (offset and ringing envelope included) over
+    /// τ ∈ [ta, tb]; `w` and `env` as in [`ComparatorBank::may_toggle`].
+    fn range(&self, c: &Channel, ta: f64, tb: f64, w: [f64; 4], env: f64) -> (f64, f64) {
+        let (lo, hi) = Self::range_ends(c, ta, tb, w, env);
+        match self.stationary_within(c, w) {
+            Some(g) => (lo.min(lo + g), hi.max(hi + g)),
+            None => (lo, hi),
+        }
+    }
+
+    /// [`ComparatorBank::range`] from the interval's ends only: exact for the linear part,
+    /// and for the transients unless their stationary point lies inside.
+    fn range_ends(c: &Channel, ta: f64, tb: f64, w: [f64; 4], env: f64) -> (f64, f64) {
+        let (l1, l2) = (c.l + c.beta * ta, c.l + c.beta * tb);
+        let (ga, gb) = (c.a * w[0] - c.b * w[1], c.a * w[2] - c.b * w[3]);
+        (l1.min(l2) + ga.min(gb) - env, l1.max(l2) + ga.max(gb) + env)
+    }
+
+    /// How far g(τ) = A·e^{−τ/τp} − B·e^{−τ/τn} reaches beyond its values at the ends of
+    /// the interval whose decay factors are `w` (signed), if its one stationary point is
+    /// inside: that is where g′ changes sign, so no logarithm is needed to rule it out.
+    fn stationary_within(&self, c: &Channel, w: [f64; 4]) -> Option<f64> {
+        let (ap, bn) = (c.a / self.tau_p, c.b / self.tau_n);
+        let (da, db) = (bn * w[1] - ap * w[0], bn * w[3] - ap * w[2]);
+        if da * db >= 0.0 {
             return None;
         }
-        // Exact range of A·e^{−τ/τp} − B·e^{−τ/τn}: the ends and the one stationary point.
-        let (ga, gb) = (a - b, fx.c * w[2] - fn_.c * w[3]);
-        let (mut gmin, mut gmax) = (ga.min(gb), ga.max(gb));
-        let (ts, gts) = c.stationary.get().unwrap_or_else(|| {
-            let k = 1.0 / self.tau_p - 1.0 / self.tau_n;
-            let (ca, cb) = (fx.c, fn_.c);
-            let st = if ca * cb > 0.0 && k != 0.0 {
-                let ts = ((ca * self.tau_n) / (cb * self.tau_p)).ln() / k;
-                (
-                    ts,
-                    ca * (-ts / self.tau_p).exp() - cb * (-ts / self.tau_n).exp(),
-                )
-            } else {
-                (f64::NAN, 0.0)
-            };
-            c.stationary.set(Some(st));
-            st
+        let gts = c.stationary.get().unwrap_or_else(|| {
+            // g′(ts) = 0: e^{(1/τp − 1/τn)·ts} = (A·τn)/(B·τp).
+            let ts = (ap / bn).ln() / (1.0 / self.tau_p - 1.0 / self.tau_n);
+            let g = c.a * (-ts / self.tau_p).exp() - c.b * (-ts / self.tau_n).exp();
+            c.stationary.set(Some(g));
+            g
         });
-        if ts > ta && ts < tb {
-            gmin = gmin.min(gts);
-            gmax = gmax.max(gts);
-        }
-        Some((lmin + gmin, lmax + gmax))
+        let (ga, gb) = (c.a * w[0] - c.b * w[1], c.a * w[2] - c.b * w[3]);
+        Some(if gts > ga.max(gb) {
+            gts - ga.max(gb)
+        } else if gts < ga.min(gb) {
+            gts - ga.min(gb)
+        } else {
+            0.0
+        })
     }
 
     /// Outputs as seen after the propagation delay at instant `at`.
