@@ -176,6 +176,7 @@ impl<P: Plant, C: Controller, S: PwmScheme> Engine<P, C, S> {
         let watch = Watch {
             channels: self.cmd.watch,
             clock: self.controller.clock(),
+            horizon: pwm_edge.min(release).max(target),
         };
         match self.plant.advance(target, watch) {
             PlantStop::Diode => Ok(StopReason::Diode),

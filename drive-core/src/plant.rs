@@ -25,6 +25,12 @@ pub struct Watch {
     pub channels: Abc<bool>,
     /// Sampling clock period: a change is reported at the first clock edge at or after it.
     pub clock: Ticks,
+    /// The next instant at which the engine already knows the gates will change (PWM edge,
+    /// dead-time release). Only a hint: the plant may integrate ahead up to it and serve
+    /// earlier instants from that step, since a controller tick usually changes nothing.
+    /// Whatever changes the dynamics sooner (`set_gates`, load, rotor) still takes effect
+    /// exactly at its instant.
+    pub horizon: Ticks,
 }
 
 /// Continuous dynamics driven by six gate signals and a load torque, producing the

@@ -90,7 +90,8 @@ pub struct PlantStats {
     pub retries: u64,
 }
 
-/// Cubic Hermite interpolation of one RK4 step (states and derivatives at both ends).
+/// Cubic Hermite interpolation of one RK4 step (states and derivatives at both ends), used
+/// to find where a freewheeling current crosses zero.
 #[derive(Copy, Clone, Debug)]
 struct Dense {
     x0: State,
@@ -101,17 +102,7 @@ struct Dense {
 }
 
 impl Dense {
-    /// The state at fraction `s` ∈ [0, 1] of the step.
-    fn at(&self, s: f64) -> State {
-        let (s2, s3) = (s * s, s * s * s);
-        let h00 = 2.0 * s3 - 3.0 * s2 + 1.0;
-        let h10 = (s3 - 2.0 * s2 + s) * self.h;
-        let h01 = 3.0 * s2 - 2.0 * s3;
-        let h11 = (s3 - s2) * self.h;
-        self.x0 * h00 + self.f0 * h10 + self.x1 * h01 + self.f1 * h11
-    }
-
-    /// One component of [`Dense::at`].
+    /// Component `k` of the interpolated state at fraction `s` ∈ [0, 1] of the step.
     fn component(&self, k: usize, s: f64) -> f64 {
         let (s2, s3) = (s * s, s * s * s);
         let h00 = 2.0 * s3 - 3.0 * s2 + 1.0;
@@ -122,20 +113,23 @@ impl Dense {
     }
 }
 
-/// A step integrated beyond the reported time. Instants inside it are served from its dense
-/// output (a watched comparator change usually changes nothing in the drive), until
-/// something changes the dynamics: then the plant settles at the present time.
+/// A step integrated beyond the reported time, up to the next known gate change. Instants
+/// inside it (controller ticks, watched comparator changes, trace samples: they usually
+/// change nothing in the drive) are served by RK4 from the step's start, so the trajectory
+/// does not depend on how often anyone looks; when something changes the dynamics, the
+/// plant settles at the present time.
 #[derive(Clone, Debug)]
 struct Lookahead {
-    dense: Dense,
+    /// The state the step starts from.
+    x0: State,
+    /// The step's starting angle with its sine and cosine.
+    base: (f64, f64, f64),
     t0: f64,
     t1: f64,
     x1: State,
     s1: Solution,
-    /// How far the current-sense chain has been advanced (it follows the served time, so
-    /// ADC readings never come from beyond it): time and shunt current there.
-    cur_t: f64,
-    cur_i: f64,
+    /// The derivative at the end.
+    f1: State,
     event: Option<Phase>,
 }
 
@@ -172,6 +166,8 @@ pub struct BldcPlant {
     lin_cache: Vec<Option<Linearised>>,
     /// The step integrated ahead of `t`, if any.
     lookahead: Option<Lookahead>,
+    /// The derivative at the committed state, while the dynamics stay as they were.
+    fsal: Option<(State, State)>,
     /// Latest clock edge reported as a sensing stop: changes up to it have been sampled.
     reported: Ticks,
     stats: PlantStats,
@@ -185,15 +181,18 @@ impl BldcPlant {
         let circuit = Circuit::new(m, &params.power_stage);
         let x = State::zeros();
         let e = Abc::splat(0.0);
-        let modes = circuit.resolve(&Gates::OFF, &Abc::splat(0.0), &e, None, None);
-        let start = circuit.solve(&modes, &Abc::splat(0.0), &e);
+        let (modes, start) = circuit.resolve(&Gates::OFF, &Abc::splat(0.0), &e, None, None);
         let cmp = ComparatorBank::new(
             &params.sensing.comparator,
             params.sensing.seed,
             &start.v_term,
             start.v_n,
         );
-        let cur = CurrentSense::new(&params.sensing.current, params.power_stage.shunt_ohm);
+        let cur = CurrentSense::new(
+            &params.sensing.current,
+            params.power_stage.shunt_ohm,
+            params.solver.max_step_s,
+        );
         Ok(BldcPlant {
             circuit,
             shape: m.back_emf,
@@ -220,6 +219,7 @@ impl BldcPlant {
             lin_cache: vec![None; 125],
             reported: Ticks::ZERO,
             lookahead: None,
+            fsal: None,
             stats: PlantStats::default(),
             params,
         })
@@ -233,6 +233,7 @@ impl BldcPlant {
     /// Sets the load torque TL [N·m] (opposing positive rotation) from now on.
     pub fn set_load_torque(&mut self, nm: f64) {
         self.settle();
+        self.fsal = None;
         self.load_nm = if nm.is_finite() { nm } else { 0.0 };
     }
 
@@ -287,9 +288,28 @@ impl BldcPlant {
         (f, f.map(|v| k * v))
     }
 
-    fn solve_at(&self, x: &State) -> Solution {
-        let (_, e) = self.emf_of(x);
-        self.circuit.solve(&self.modes, &Self::currents(x), &e)
+    /// d(i_shunt)/dt for state derivative `f`: the shunt carries the low-side currents back.
+    fn shunt_slope(&self, f: &State) -> f64 {
+        Phase::ALL
+            .into_iter()
+            .filter(|p| self.modes.get(*p).is_low())
+            .map(|p| -f[p.index()])
+            .sum()
+    }
+
+    /// The angle, sine and cosine a step starts from: every evaluation inside the step
+    /// reaches its own angle from them by angle addition (see [`emf::sin_cos_near`]).
+    fn base(x: &State) -> (f64, f64, f64) {
+        let (s, c) = x[THETA].sin_cos();
+        (x[THETA], s, c)
+    }
+
+    /// The network's solution for a state inside the step that starts at `base`.
+    fn solve_near(&self, x: &State, base: (f64, f64, f64)) -> Solution {
+        let f = emf::shape_with(&self.shape, x[THETA], emf::sin_cos_near(x[THETA], base));
+        let k = self.lambda * self.pp * x[OMEGA];
+        self.circuit
+            .solve(&self.modes, &Self::currents(x), &f.map(|v| k * v))
     }
 
     fn deriv(&self, x: &State, base: (f64, f64, f64)) -> State {
@@ -326,25 +346,23 @@ impl BldcPlant {
         ])
     }
 
-    fn rk4(&self, x: &State, h: f64) -> State {
-        self.rk4_k1(x, h).0
+    fn rk4(&self, x: &State, h: f64, base: (f64, f64, f64)) -> State {
+        self.rk4_k1(x, h, base).0
     }
 
-    /// One RK4 step; also returns the derivative at the start (for dense output).
-    fn rk4_k1(&self, x: &State, h: f64) -> (State, State) {
-        // One sin/cos per step; the stages' angles are reached by angle addition.
-        let (s, c) = x[THETA].sin_cos();
-        let base = (x[THETA], s, c);
-        let k1 = self.deriv(x, base);
+    /// One RK4 step from `x`, whose angle's sine and cosine are in `base` (the stages'
+    /// angles are reached by angle addition); also returns the derivative at the start
+    /// (for dense output).
+    fn rk4_k1(&self, x: &State, h: f64, base: (f64, f64, f64)) -> (State, State) {
+        self.rk4_from(x, h, base, self.deriv(x, base))
+    }
+
+    /// [`BldcPlant::rk4_k1`] with the derivative at the start already known.
+    fn rk4_from(&self, x: &State, h: f64, base: (f64, f64, f64), k1: State) -> (State, State) {
         let k2 = self.deriv(&(x + k1 * (0.5 * h)), base);
         let k3 = self.deriv(&(x + k2 * (0.5 * h)), base);
         let k4 = self.deriv(&(x + k3 * h), base);
         (x + (k1 + (k2 + k3) * 2.0 + k4) * (h / 6.0), k1)
-    }
-
-    fn deriv_at(&self, x: &State) -> State {
-        let (s, c) = x[THETA].sin_cos();
-        self.deriv(x, (x[THETA], s, c))
     }
 
     /// Per-phase event functions: ≥ 0 while nothing happens, < 0 once a diode current has
@@ -400,9 +418,10 @@ impl BldcPlant {
 
     /// Earliest h in (0, h_full] where phase p's event function reaches zero.
     fn locate(&mut self, x0: &State, h_full: f64, p: Phase) -> f64 {
+        let base = Self::base(x0);
         let g = |pl: &Self, h: f64| {
-            let x = pl.rk4(x0, h);
-            let s = pl.solve_at(&x);
+            let x = pl.rk4(x0, h, base);
+            let s = pl.solve_near(&x, base);
             pl.event_margin(&x, &s, p)
         };
         let (mut a, mut fa) = (0.0, self.event_margin(x0, &self.start, p));
@@ -449,14 +468,124 @@ impl BldcPlant {
         b
     }
 
+    /// The earliest event of the step `d` (network `s1` at its end, angle base `b0`): its
+    /// step length, phase, and the RK4 state there when already known. Besides event
+    /// functions negative at the end, a freewheeling current that crosses zero and turns
+    /// back inside the step is found from the step's cubic Hermite interpolant.
+    fn first_event(
+        &mut self,
+        d: &Dense,
+        s1: &Solution,
+        b0: (f64, f64, f64),
+    ) -> Option<(f64, Phase, Option<State>)> {
+        let (x0, x1, h_full) = (&d.x0, &d.x1, d.h);
+        let mut hit = self.triggered(x0, x1, s1);
+        for (h, m) in hit.iter_mut().zip(self.muted) {
+            *h &= !m;
+        }
+        let diode_left = Phase::ALL
+            .into_iter()
+            .any(|p| self.modes.get(p).is_diode() && !hit[p.index()] && !self.muted[p.index()]);
+        if !hit.contains(&true) && !diode_left {
+            return None;
+        }
+        // Freewheeling currents that cross zero inside the step but not at its end: the
+        // step up to where the interpolant is most negative brackets the crossing.
+        let mut bracket = [h_full; 3];
+        for p in Phase::ALL {
+            let k = p.index();
+            if hit[k] || self.muted[k] || !self.modes.get(p).is_diode() {
+                continue;
+            }
+            if let Some(s) = self.interior_reversal(d, p) {
+                let h = s * h_full;
+                let x = self.rk4(x0, h, b0);
+                if self.event_margin(&x, &self.start, p) < 0.0 {
+                    hit[k] = true;
+                    bracket[k] = h;
+                }
+            }
+        }
+        // Locate every event of the step and keep the earliest.
+        let mut first: Option<(f64, Phase, Option<State>)> = None;
+        for p in Phase::ALL.into_iter().filter(|p| hit[p.index()]) {
+            let k = p.index();
+            let mut at = None;
+            let h = if self.modes.get(p).is_diode() && bracket[k] == h_full {
+                // The dense output's root is usually exact enough; where the current
+                // approaches zero slowly it is not, and RK4 decides.
+                let mut h = self.locate_diode(d, p) * h_full;
+                let mut done = false;
+                for _ in 0..3 {
+                    // Newton on the RK4 solution itself, from the dense guess.
+                    let x = self.rk4(x0, h, b0);
+                    if x[k].abs() < 1e-9 {
+                        done = true;
+                        at = Some(x);
+                        break;
+                    }
+                    let slope = self.deriv(&x, b0)[k];
+                    if slope == 0.0 {
+                        break;
+                    }
+                    h = (h - x[k] / slope).clamp(0.0, h_full);
+                }
+                if done { h } else { self.locate(x0, h_full, p) }
+            } else {
+                self.locate(x0, bracket[k], p)
+            };
+            if first.is_none_or(|(h0, _, _)| h < h0) {
+                first = Some((h, p, at));
+            }
+        }
+        first
+    }
+
+    /// Where the interpolated current of freewheeling phase `p` is most reversed inside
+    /// the step (fraction of the step), if it reverses there while both ends conduct.
+    fn interior_reversal(&self, d: &Dense, p: Phase) -> Option<f64> {
+        let k = p.index();
+        let sign = if self.modes.get(p) == Conduction::DiodeLow {
+            1.0
+        } else {
+            -1.0
+        };
+        let (y0, y1) = (sign * d.x0[k], sign * d.x1[k]);
+        if y0 <= 0.0 || y1 < 0.0 {
+            return None;
+        }
+        let (g0, g1) = (sign * d.f0[k] * d.h, sign * d.f1[k] * d.h);
+        // d/ds of the Hermite cubic: a·s² + b·s + c.
+        let a = 6.0 * (y0 - y1) + 3.0 * (g0 + g1);
+        let b = 6.0 * (y1 - y0) - 4.0 * g0 - 2.0 * g1;
+        let c = g0;
+        let disc = b * b - 4.0 * a * c;
+        if disc < 0.0 {
+            return None;
+        }
+        let q = -0.5 * (b + b.signum() * disc.sqrt());
+        let roots = [
+            if q != 0.0 { c / q } else { -1.0 },
+            if a != 0.0 { q / a } else { -1.0 },
+        ];
+        roots
+            .into_iter()
+            .filter(|s| *s > 0.0 && *s < 1.0)
+            .map(|s| (s, sign * d.component(k, s)))
+            .filter(|(_, v)| *v < 0.0)
+            .min_by(|x, y| x.1.total_cmp(&y.1))
+            .map(|(s, _)| s)
+    }
+
     fn refresh_start(&mut self) {
         self.refresh_start_at(None, None);
     }
 
     /// Re-resolves the conduction state after an event (see [`Circuit::resolve`]).
     fn refresh_start_at(&mut self, at_clamp: Option<Phase>, keep_open: Option<Phase>) {
+        self.fsal = None;
         let (_, e) = self.emf_of(&self.x);
-        self.modes = self.circuit.resolve(
+        (self.modes, self.start) = self.circuit.resolve(
             &self.gates,
             &Self::currents(&self.x),
             &e,
@@ -473,9 +602,6 @@ impl BldcPlant {
                 l
             }
         };
-        self.start = self
-            .circuit
-            .solve(&self.modes, &Self::currents(&self.x), &e);
     }
 
     /// The first tick at or after `t`, and whether `t` is (within rounding) that tick.
@@ -508,14 +634,15 @@ impl BldcPlant {
 
     /// True signals now.
     pub fn observe(&self) -> Observation {
-        let (f, e) = self.emf_of(&self.x);
-        let i = Self::currents(&self.x);
+        let x = self.state();
+        let (f, e) = self.emf_of(&x);
+        let i = Self::currents(&x);
         let s = self.circuit.solve(&self.modes, &i, &e);
         Observation {
             t_s: self.t,
-            theta_e: self.x[THETA],
-            omega_m: self.x[OMEGA],
-            speed_rpm: self.x[OMEGA] * 60.0 / TAU,
+            theta_e: x[THETA],
+            omega_m: x[OMEGA],
+            speed_rpm: x[OMEGA] * 60.0 / TAU,
             i,
             v_term: s.v_term,
             v_n: s.v_n,
@@ -528,7 +655,7 @@ impl BldcPlant {
 
     /// Energy integrals since t = 0 and the energies stored now.
     pub fn energy(&self) -> EnergyLedger {
-        let x = &self.x;
+        let x = &self.state();
         EnergyLedger {
             supply: x[E_SUPPLY],
             copper: x[E_SUPPLY + 1],
@@ -552,10 +679,13 @@ impl BldcPlant {
         }
         self.stats.steps += 1;
     }
-    /// Commits a step ending at `t1` (handling its diode event, if any).
+
+    /// Commits a step ending at `t1` with derivative `f1` there (handling its diode event,
+    /// if any).
     fn finish_step(
         &mut self,
         x1: State,
+        f1: State,
         t0: f64,
         t1: f64,
         s1: Solution,
@@ -611,25 +741,30 @@ impl BldcPlant {
             self.muted = [false; 3];
         }
         self.start = s1;
+        self.fsal = Some((self.x, f1));
         None
     }
 
-    fn wrap_theta(&mut self) {
-        if !(0.0..TAU).contains(&self.x[THETA]) {
-            self.x[THETA] = self.x[THETA].rem_euclid(TAU);
-        }
+    /// Moves the reported time to `t` inside the lookahead step. The sensing chains have
+    /// been advanced over the whole step already; the state there is computed only when
+    /// asked for (see [`BldcPlant::state`]).
+    fn serve_at(&mut self, t: f64) {
+        self.t = t;
     }
 
-    /// Moves the reported time to `t` inside the lookahead step (interpolated state).
-    fn serve_at(&mut self, t: f64) {
-        let Some(la) = &self.lookahead else { return };
-        self.x = la.dense.at((t - la.t0) / la.dense.h);
-        self.wrap_theta();
-        self.t = t;
-        let i_sh = self.solve_at(&self.x).i_shunt;
-        if let Some(la) = &mut self.lookahead {
-            self.cur.update(la.cur_t, t, la.cur_i, i_sh);
-            (la.cur_t, la.cur_i) = (t, i_sh);
+    /// The state at the present time: inside a lookahead step, RK4 itself from the step's
+    /// start (not an interpolant), so what is observed is the solution to integrator
+    /// accuracy and the energy integrals stay consistent with the currents.
+    fn state(&self) -> State {
+        match &self.lookahead {
+            Some(la) => {
+                let mut x = self.rk4(&la.x0, self.t - la.t0, la.base);
+                if !(0.0..TAU).contains(&x[THETA]) {
+                    x[THETA] = x[THETA].rem_euclid(TAU);
+                }
+                x
+            }
+            None => self.x,
         }
     }
 
@@ -650,30 +785,21 @@ impl BldcPlant {
                 return Some(PlantStop::Reached);
             }
             self.serve_at(t_end);
-            if let Some(la) = &self.lookahead {
-                // An engine instant: take the state from RK4 itself, so the energy
-                // integrals are exactly consistent with the currents there.
-                self.x = self.rk4(&la.dense.x0, self.t - la.t0);
-                self.wrap_theta();
-            }
             return Some(PlantStop::Reached);
         }
         let la = self.lookahead.take()?;
-        self.cur.update(la.cur_t, la.t1, la.cur_i, la.s1.i_shunt);
-        self.finish_step(la.x1, la.t0, la.t1, la.s1, la.event)
+        self.finish_step(la.x1, la.f1, la.t0, la.t1, la.s1, la.event)
     }
 
     /// Ends any lookahead at the present time, before the dynamics change.
     fn settle(&mut self) {
-        if let Some(la) = self.lookahead.take() {
+        if self.lookahead.is_some() {
             let (now, _) = Self::ceil_tick(self.t);
             self.cmp.truncate_at(now);
-            // The current sense already stands at the present time (see `serve_at`); the
-            // state is taken from RK4 itself, as at any instant where the dynamics change.
-            debug_assert!((la.cur_t - self.t).abs() < 1e-15);
-            self.x = self.rk4(&la.dense.x0, self.t - la.t0);
-            self.wrap_theta();
-            self.start = self.solve_at(&self.x);
+            self.cur.truncate_at(self.t);
+            self.x = self.state();
+            let la = self.lookahead.take().expect("checked above");
+            self.start = self.solve_near(&self.x, la.base);
             self.same_instant_events = 0;
             self.stats.retries += 1;
         }
@@ -722,75 +848,39 @@ impl Plant for BldcPlant {
                 self.t = self.t.max(t_end);
                 return PlantStop::Reached;
             }
-            let mut t1 = t_end.min(t0 + self.h_max);
+            // Integrate up to the horizon, not just to `until`: instants before it are
+            // served from this step (see `Lookahead`) unless the dynamics change first.
+            let mut t1 = watch.horizon.max(until).seconds().min(t0 + self.h_max);
             if let Some(e) = pending {
                 t1 = t1.min(e.seconds());
             }
             let x0 = self.x;
-            let (mut x1, f0) = self.rk4_k1(&x0, t1 - t0);
-            let mut s1 = self.solve_at(&x1);
+            let b0 = Self::base(&x0);
+            // First same as last: the derivative at the end of the previous step, when
+            // nothing has changed the dynamics since.
+            let k1 = match self.fsal.take() {
+                Some((x, f)) if x == x0 => f,
+                _ => self.deriv(&x0, b0),
+            };
+            let (mut x1, f0) = self.rk4_from(&x0, t1 - t0, b0, k1);
+            let mut f1 = self.deriv(&x1, b0);
+            let mut s1 = self.solve_near(&x1, b0);
             let mut event = None;
-            let mut dense = None;
-            {
-                let mut hit = self.triggered(&x0, &x1, &s1);
-                for (h, m) in hit.iter_mut().zip(self.muted) {
-                    *h &= !m;
-                }
-                if hit.contains(&true) {
-                    // Locate every event of the step and keep the earliest.
-                    let h_full = t1 - t0;
-                    let d = Dense {
-                        x0,
-                        f0,
-                        x1,
-                        f1: self.deriv_at(&x1),
-                        h: h_full,
-                    };
-                    let mut first: Option<(f64, Phase)> = None;
-                    for p in Phase::ALL.into_iter().filter(|p| hit[p.index()]) {
-                        let h = if self.modes.get(p).is_diode() {
-                            // The dense output's root is usually exact enough; where the
-                            // current approaches zero slowly it is not, and RK4 decides.
-                            let mut h = self.locate_diode(&d, p) * h_full;
-                            let k = p.index();
-                            let mut done = false;
-                            for _ in 0..3 {
-                                // Newton on the RK4 solution itself, from the dense guess.
-                                let x = self.rk4(&x0, h);
-                                if x[k].abs() < 1e-9 {
-                                    done = true;
-                                    break;
-                                }
-                                let slope = self.deriv_at(&x)[k];
-                                if slope == 0.0 {
-                                    break;
-                                }
-                                h = (h - x[k] / slope).clamp(0.0, h_full);
-                            }
-                            if done { h } else { self.locate(&x0, h_full, p) }
-                        } else {
-                            self.locate(&x0, h_full, p)
-                        };
-                        if first.is_none_or(|(h0, _)| h < h0) {
-                            first = Some((h, p));
-                        }
-                    }
-                    let (h, p) = first.expect("at least one event");
-                    // The step to the event is taken again with RK4 (not interpolated), so
-                    // the energy integrals stay consistent with the currents.
-                    x1 = self.rk4(&x0, h);
-                    let d = Dense {
-                        x0,
-                        f0,
-                        x1,
-                        f1: self.deriv_at(&x1),
-                        h,
-                    };
-                    t1 = t0 + h;
-                    s1 = self.solve_at(&x1);
-                    event = Some(p);
-                    dense = Some(d);
-                }
+            let step = Dense {
+                x0,
+                f0,
+                x1,
+                f1,
+                h: t1 - t0,
+            };
+            if let Some((h, p, at)) = self.first_event(&step, &s1, b0) {
+                // The step to the event is RK4's (not interpolated), so the energy
+                // integrals stay consistent with the currents.
+                x1 = at.unwrap_or_else(|| self.rk4(&x0, h, b0));
+                f1 = self.deriv(&x1, b0);
+                t1 = t0 + h;
+                s1 = self.solve_near(&x1, b0);
+                event = Some(p);
             }
             self.cmp
                 .forget_history(Ticks((t0 / TICK_S + 1e-6).floor() as u64), unreported);
@@ -802,37 +892,37 @@ impl Plant for BldcPlant {
                 &s1.v_term,
                 s1.v_n,
             );
-            if let Some(e) = self.pending_sample(watch, now) {
-                if e.seconds() < t1 - 1e-15 {
-                    // A watched output changed inside the step: report it at the clock edge
-                    // that samples it, keeping the rest of the step for later.
-                    let dense = match dense {
-                        Some(d) => d,
-                        None => Dense {
-                            x0,
-                            f0,
-                            x1,
-                            f1: self.deriv_at(&x1),
-                            h: t1 - t0,
-                        },
-                    };
-                    self.lookahead = Some(Lookahead {
-                        dense,
-                        t0,
-                        t1,
-                        x1,
-                        s1,
-                        cur_t: t0,
-                        cur_i: self.start.i_shunt,
-                        event,
-                    });
+            self.cur.update(
+                t0,
+                t1,
+                (self.start.i_shunt, self.shunt_slope(&f0)),
+                (s1.i_shunt, self.shunt_slope(&f1)),
+            );
+            let sample = self
+                .pending_sample(watch, now)
+                .filter(|e| e.seconds() < t1 - 1e-15);
+            if sample.is_some() || t_end < t1 - 1e-15 {
+                // A watched output changed inside the step, or the step runs past `until`:
+                // stop there, keeping the rest of the step for later.
+                self.lookahead = Some(Lookahead {
+                    x0,
+                    base: b0,
+                    t0,
+                    t1,
+                    x1,
+                    s1,
+                    f1,
+                    event,
+                });
+                if let Some(e) = sample.filter(|e| e.seconds() <= t_end + 1e-15) {
                     self.serve_at(e.seconds());
                     self.reported = e;
                     return PlantStop::Sensing(e);
                 }
+                self.serve_at(t_end);
+                return PlantStop::Reached;
             }
-            self.cur.update(t0, t1, self.start.i_shunt, s1.i_shunt);
-            if let Some(stop) = self.finish_step(x1, t0, t1, s1, event) {
+            if let Some(stop) = self.finish_step(x1, f1, t0, t1, s1, event) {
                 return stop;
             }
         }

@@ -272,6 +272,8 @@ impl Circuit {
     ///
     /// `keep_open` names a phase whose diode was just found not to conduct after all (its
     /// current would reverse at once): it stays open at this instant.
+    ///
+    /// Also returns the network's solution in the resolved state (it is found on the way).
     pub fn resolve(
         &self,
         gates: &Gates,
@@ -279,7 +281,7 @@ impl Circuit {
         e: &Abc<f64>,
         at_clamp: Option<Phase>,
         keep_open: Option<Phase>,
-    ) -> Abc<Conduction> {
+    ) -> (Abc<Conduction>, Solution) {
         let mut modes = Abc::from_fn(|p| {
             if gates.high.get(p) {
                 Conduction::SwitchHigh
@@ -293,8 +295,8 @@ impl Circuit {
                 Conduction::Open
             }
         });
+        let mut sol = self.solve(&modes, i, e);
         for round in 0..3 {
-            let sol = self.solve(&modes, i, e);
             let mut worst: Option<(Phase, f64)> = None;
             for p in Phase::ALL {
                 let open = !modes.get(p).conducts();
@@ -349,8 +351,9 @@ impl Circuit {
                 break;
             }
             modes = trial;
+            sol = s;
         }
-        modes
+        (modes, sol)
     }
 }
 
@@ -563,7 +566,7 @@ mod tests {
             v: 2.0,
             w: -4.0,
         };
-        let m = c.resolve(&g, &i, &e, None, None);
+        let (m, _) = c.resolve(&g, &i, &e, None, None);
         assert_eq!(m.u, Conduction::DiodeLow);
         assert_eq!(m.w, Conduction::DiodeLow);
     }
