@@ -8,7 +8,7 @@
 use bldc_drive::DriveConfig;
 use bldc_drive::drive::build;
 use bldc_drive::drive_core::{StopReason, Ticks};
-use std::collections::BTreeMap;
+use std::collections::HashMap;
 use std::time::Instant;
 
 fn main() {
@@ -36,10 +36,10 @@ fn main() {
         std::process::exit(1);
     }
     let (p0, c0) = (e.plant.stats(), e.plant.comparators().clone());
-    let mut reasons: BTreeMap<String, u64> = BTreeMap::new();
+    let mut reasons: HashMap<StopReason, u64> = HashMap::new();
     let wall = Instant::now();
     let run = e.run_until(at(3.0), |_, r: StopReason| {
-        *reasons.entry(format!("{r:?}")).or_default() += 1;
+        *reasons.entry(r).or_default() += 1;
     });
     let dt = wall.elapsed().as_secs_f64();
     if let Err(err) = run {
@@ -64,5 +64,10 @@ fn main() {
         c1.ticks_scanned - c0.ticks_scanned,
         c1.segments - c0.segments
     );
+    let mut reasons: Vec<_> = reasons
+        .into_iter()
+        .map(|(r, n)| (format!("{r:?}"), n))
+        .collect();
+    reasons.sort();
     println!("stops: {reasons:?}");
 }

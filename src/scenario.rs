@@ -168,12 +168,17 @@ impl TraceRow {
 
     /// The row as CSV (no newline).
     pub fn csv(&self) -> String {
+        // An angle a hair below 360° would print as 360.000: keep the column in [0, 360).
+        let theta = match (self.theta_e_deg * 1e3).round() / 1e3 {
+            t if t >= 360.0 => t - 360.0,
+            t => t,
+        };
         format!(
             "{:.9},{:.3},{:.1},{:.3},{:.6},{:.6},{:.6},{:.5},{:.5},{:.5},{:.5},{:.9},{},{},{},{},{:.5},{}",
             self.t_s,
             self.speed_rpm,
             self.speed_est_rpm,
-            self.theta_e_deg,
+            theta,
             self.i_u,
             self.i_v,
             self.i_w,
