@@ -316,10 +316,11 @@ fn raw_guard_mis_commutates_at_low_speed_where_df_does_not() {
 /// (α − 120)/60 of the time: 1/4 at 135°, 3/4 at 165° (state times from the true timeline).
 ///
 /// At 165° the 2-phase part, the only place a crossing can be seen, is 15° wide: a crossing
-/// the guards reject there is missed, the commutation is forced and the drive can lose
-/// step. It does for some noise seeds, so 165° is checked over six seeds, most of which
-/// must hold speed without a miss (measured: 4 of 6; one loses step, one forces a
-/// commutation 20° late and recovers).
+/// found late or missed there forces a commutation and the drive can lose step. Whether it
+/// does depends on the comparator noise, so 165° is a statistical claim over twelve seeds:
+/// in a 20-seed sample 16 held 3000 rpm for the 2 s (150° held all 20), so at least half
+/// must hold (a 1-in-250 chance of failing by bad luck if 80 % hold); the runs that hold
+/// have the predicted 3-phase fraction.
 ///
 /// From standstill only angles up to 150° start: above it the first post part, timed from
 /// the hand-over's assumed 60° (15 ms), outlasts the slow rotor's next crossing, which then
@@ -333,23 +334,25 @@ fn conduction_angle_135_and_165_hold_speed_on_their_boundaries() {
         let m = mean_speed(&r, 3.0, 4.0);
         let (post, pre) = r.post_pre_s;
         let frac = post / (post + pre);
-        println!("{angle}° seed {seed}: mean {m:.0} rpm, 3-phase fraction {frac:.3}");
+        let (_, mean_abs, max) = stats(&r.angle_err);
+        println!(
+            "{angle}° seed {seed}: mean {m:.0} rpm, 3-phase fraction {frac:.3}, \
+             {} forced, angle error mean |e| {mean_abs:.2}° max {max:.1}°",
+            r.forced
+        );
         if (r.mode, r.restarts) != (Mode::Running, 0) || (m - 3000.0).abs() >= 60.0 {
             return false;
-        }
-        let (_, _, max) = stats(&r.angle_err);
-        if max >= 15.0 {
-            return false; // a missed crossing, commutation forced
         }
         let want = (angle - 120.0) / 60.0;
         // A commutation late or early by the mean |error| (≈ 1–2°) moves the split by e/60.
         assert!((frac - want).abs() < 0.04, "{angle}: {frac:.3} vs {want}");
-        angle_stats(&format!("twelve-step-df {angle}° seed {seed}"), &r, 3000.0);
+        assert!(mean_abs < 3.0, "{angle}: mean |error| {mean_abs:.2}°");
         true
     };
-    assert!(holds(135.0, DriveConfig::default().sensing.seed));
-    let held = (1..=6).filter(|&seed| holds(165.0, seed)).count();
-    assert!(held >= 4, "165° held 3000 rpm for {held} of 6 seeds");
+    let seed = DriveConfig::default().sensing.seed;
+    assert!(holds(135.0, seed), "135° holds with the default seed");
+    let held = (1..=12).filter(|&seed| holds(165.0, seed)).count();
+    assert!(held >= 6, "165° held 3000 rpm for {held} of 12 seeds");
 }
 
 /// The default speed gains give a damped response to a small step (no saturation):
