@@ -36,11 +36,15 @@ def main():
     problems = validate_fmu(FMU)
     check(problems == [], f"fmpy validate: {len(problems)} problems {problems}")
 
-    signals = np.array(PROFILE, dtype=[("time", np.float64), ("speed_ref_rpm", np.float64),
-                                       ("load_torque_nm", np.float64)])
+    signals = np.array([(t, s, l, True) for t, s, l in PROFILE],
+                       dtype=[("time", np.float64), ("speed_ref_rpm", np.float64),
+                              ("load_torque_nm", np.float64), ("enable", np.bool_)])
     # Inputs are continuous, so fmpy interpolates the table: a constant piece can come out
-    # an ulp off (3000.0000000000005), which the drive sees as a change. Hence "within
-    # 1e-9 of full scale" below rather than bit-identical.
+    # an ulp off (3000.0000000000005), which the drive sees as a change. The plant then ends
+    # its step there instead of integrating on to the next PWM edge, so from the load step
+    # on the two runs take differently cut (equally valid) RK4 steps and agree to the
+    # integrator's accuracy, not bit for bit: measured 1e-6 A, 4e-4 rpm, 2e-4 deg. Hence
+    # "within 1e-5 of full scale" below.
     fmi = simulate_fmu(FMU, validate=True, start_time=0.0, stop_time=STOP, output_interval=STEP,
                        input=signals, output=COLUMNS)
     t = fmi["time"]
@@ -59,7 +63,7 @@ def main():
     for c in COLUMNS:
         diff = float(np.max(np.abs(fmi[c] - native[c])))
         scale = max(1.0, float(np.max(np.abs(native[c]))))
-        check(diff <= 1e-9 * scale, f"{c}: FMU vs native max |diff| = {diff:.3g}")
+        check(diff <= 1e-5 * scale, f"{c}: FMU vs native max |diff| = {diff:.3g}")
 
     s = fmi["speed_rpm"]
     m1 = mean_between(t, s, 2.0, 2.5)
