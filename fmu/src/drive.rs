@@ -96,11 +96,16 @@ fn engine_of(
         return build(cfg).map_err(|e| e.to_string());
     }
     let path = plugin_path(text, resources)?;
-    let rule =
-        "rule: a strategy plugin built against strategy-abi, whose header and config checks pass";
-    let lib = PluginLibrary::load(&path)
-        .map_err(|e| format!("strategy.plugin = `{text}`: {e} ({rule})"))?;
-    build_plugin(cfg, &lib).map_err(|e| format!("strategy.plugin = `{text}`: {e} ({rule})"))
+    let named = |e: String| {
+        let rule = if e.contains("(rule:") {
+            ""
+        } else {
+            " (rule: a strategy plugin built against strategy-abi)"
+        };
+        format!("strategy.plugin = `{text}`: {e}{rule}")
+    };
+    let lib = PluginLibrary::load(&path).map_err(|e| named(e.to_string()))?;
+    build_plugin(cfg, &lib).map_err(|e| named(e.to_string()))
 }
 
 fn slot(input: Input) -> usize {
