@@ -28,6 +28,8 @@ fi
 cargo xtask fmu >/dev/null
 
 cargo test --workspace --all-targets --locked "$@"
+# The plugins fmu/tests/fmi_plugin.py loads (the same build the Rust tests make).
+cargo build --profile test --locked -p example-plugin -p misbehaving-plugin
 
 for t in fmu/tests/*.py; do
     [ "$(basename "$t")" = fmu_paths.py ] && continue

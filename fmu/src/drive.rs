@@ -1,11 +1,13 @@
 //! The running drive inside an instance: the engine, the inputs applied to it, and the
 //! record of every input change and communication point that makes it replayable.
 
-use crate::variables::{Input, Output, Role, table};
+use crate::variables::{Input, Output, Role, Text, table};
 use bldc_drive::DriveConfig;
-use bldc_drive::drive::{DriveEngine, build};
+use bldc_drive::drive::{DriveEngine, build, build_plugin};
 use bldc_drive::drive_core::{EngineError, ParamError, Ticks};
+use bldc_drive::strategies::PluginLibrary;
 use bldc_drive::strategies::params::SPEED_CMD_MAX_RPM;
+use std::path::{Path, PathBuf};
 
 /// One thing that happened to a drive after it was built; replaying the list on a drive
 /// built from the same values reproduces it bit for bit (the simulation is deterministic).
@@ -23,6 +25,8 @@ pub struct Drive {
     pub engine: DriveEngine,
     /// The variable values the drive was built from.
     pub built_from: Vec<f64>,
+    /// The String values it was built from (the plugin path as set).
+    pub built_from_texts: Vec<String>,
     /// Everything since.
     pub events: Vec<Event>,
     /// Inputs in force: speed command, load torque, enable.
@@ -49,6 +53,61 @@ pub fn clamp_speed(rpm: f64) -> f64 {
     rpm.clamp(0.0, SPEED_CMD_MAX_RPM)
 }
 
+/// The value of String parameter `which` among `texts` (indexed by value reference).
+pub fn text_of(texts: &[String], which: Text) -> &str {
+    table()
+        .iter()
+        .position(|v| matches!(v.role, Role::Text(t) if t == which))
+        .and_then(|vr| texts.get(vr))
+        .map_or("", String::as_str)
+}
+
+/// The file `strategy.plugin` = `text` names: an absolute path as is, a relative one
+/// inside the instance's resources folder.
+pub fn plugin_path(text: &str, resources: Option<&Path>) -> Result<PathBuf, String> {
+    let p = Path::new(text);
+    let path = match resources {
+        _ if p.is_absolute() => p.to_path_buf(),
+        Some(r) => r.join(p),
+        None => {
+            return Err(format!(
+                "strategy.plugin = `{text}` is a relative path, but fmi2Instantiate gave no file:// fmuResourceLocation to resolve it against (rule: an absolute path, or one relative to the FMU's resources folder)"
+            ));
+        }
+    };
+    if !path.is_file() {
+        return Err(format!(
+            "strategy.plugin = `{text}`: no file at {} (rule: an existing plugin library, absolute or relative to the FMU's resources folder)",
+            path.display()
+        ));
+    }
+    Ok(path)
+}
+
+/// The engine the values describe: the built-in strategy, or the plugin `strategy.plugin`
+/// names, loaded and checked as `drive-bench --plugin` does.
+fn engine_of(
+    cfg: &DriveConfig,
+    texts: &[String],
+    resources: Option<&Path>,
+) -> Result<DriveEngine, String> {
+    let text = text_of(texts, Text::StrategyPlugin);
+    if text.is_empty() {
+        return build(cfg).map_err(|e| e.to_string());
+    }
+    let path = plugin_path(text, resources)?;
+    let named = |e: String| {
+        let rule = if e.contains("(rule:") {
+            ""
+        } else {
+            " (rule: a strategy plugin built against strategy-abi)"
+        };
+        format!("strategy.plugin = `{text}`: {e}{rule}")
+    };
+    let lib = PluginLibrary::load(&path).map_err(|e| named(e.to_string()))?;
+    build_plugin(cfg, &lib).map_err(|e| named(e.to_string()))
+}
+
 fn slot(input: Input) -> usize {
     match input {
         Input::SpeedRef => 0,
@@ -58,13 +117,19 @@ fn slot(input: Input) -> usize {
 }
 
 impl Drive {
-    /// Builds the drive at t = 0 from variable values (parameters and initial inputs).
-    pub fn new(values: &[f64]) -> Result<Drive, ParamError> {
-        let cfg = config_of(values)?;
-        let engine = build(&cfg)?;
+    /// Builds the drive at t = 0 from variable values (parameters and initial inputs) and
+    /// String values; a relative plugin path is resolved inside `resources`.
+    pub fn new(
+        values: &[f64],
+        texts: &[String],
+        resources: Option<&Path>,
+    ) -> Result<Drive, String> {
+        let cfg = config_of(values).map_err(|e| e.to_string())?;
+        let engine = engine_of(&cfg, texts, resources)?;
         let mut d = Drive {
             engine,
             built_from: values.to_vec(),
+            built_from_texts: texts.to_vec(),
             events: Vec::new(),
             // What `build` leaves in force: the config's speed command, no load, start held.
             applied: [cfg.control.speed_ref_rpm, 0.0, 1.0],
@@ -141,6 +206,7 @@ impl Drive {
         Ok(Drive {
             engine: bldc_drive::drive::try_clone(&self.engine)?,
             built_from: self.built_from.clone(),
+            built_from_texts: self.built_from_texts.clone(),
             events: self.events.clone(),
             applied: self.applied,
         })
@@ -177,6 +243,42 @@ fn wrap_deg(d: f64) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn plugin_paths_resolve_inside_resources_and_name_the_rule() {
+        let dir = std::env::temp_dir().join(format!("fmu-plugin-path-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        std::fs::write(dir.join("p.so"), b"x").unwrap();
+        assert_eq!(plugin_path("p.so", Some(&dir)).unwrap(), dir.join("p.so"));
+        let abs = dir.join("p.so");
+        let abs = abs.to_str().unwrap();
+        assert_eq!(plugin_path(abs, None).unwrap(), dir.join("p.so"));
+        let e = plugin_path("p.so", None).unwrap_err();
+        assert!(e.contains("`p.so`") && e.contains("rule"), "{e}");
+        let e = plugin_path("missing.so", Some(&dir)).unwrap_err();
+        assert!(e.contains("missing.so") && e.contains("rule"), "{e}");
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn a_file_that_is_not_a_library_is_refused_with_its_name() {
+        let dir = std::env::temp_dir().join(format!("fmu-plugin-text-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        std::fs::write(dir.join("text.so"), b"not a library").unwrap();
+        let values: Vec<f64> = table().iter().map(|v| v.start().unwrap_or(0.0)).collect();
+        let mut texts = vec![String::new(); table().len()];
+        let vr = crate::variables::vr_of("strategy.plugin").unwrap() as usize;
+        texts[vr] = "text.so".into();
+        let Err(e) = Drive::new(&values, &texts, Some(&dir)) else {
+            panic!("a text file was loaded as a plugin")
+        };
+        assert!(
+            e.contains("strategy.plugin = `text.so`")
+                && e.contains("not a loadable shared library"),
+            "{e}"
+        );
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
 
     #[test]
     fn angles_wrap_into_0_360() {

@@ -6,6 +6,7 @@ use crate::model::{Fault, Model};
 use std::collections::BTreeSet;
 use std::ffi::{CStr, CString, c_char, c_int, c_void};
 use std::panic::{AssertUnwindSafe, catch_unwind};
+use std::path::PathBuf;
 use std::sync::Mutex;
 
 /// `fmi2Status`.
@@ -62,6 +63,8 @@ pub struct Instance {
     pub enabled: [bool; 3],
     /// The safe core.
     pub model: Model,
+    /// What the last `fmi2GetString` returned: kept so its pointers stay valid.
+    pub strings_out: Vec<CString>,
 }
 
 impl Instance {
@@ -74,6 +77,7 @@ impl Instance {
             env: callbacks.component_environment,
             enabled: [true, true, logging_on],
             model: Model::new(),
+            strings_out: Vec::new(),
         }
     }
 
@@ -98,6 +102,34 @@ impl Instance {
             }
         }
     }
+}
+
+/// The folder an `fmuResourceLocation` URI names: `file:///abs`, `file:/abs` or
+/// `file://localhost/abs`, percent-decoded. None for anything else (a relative
+/// `strategy.plugin` then cannot be resolved, which is reported when it is used).
+pub fn resources_of_uri(uri: &str) -> Option<PathBuf> {
+    let rest = uri.strip_prefix("file:")?;
+    let path = match rest.strip_prefix("//") {
+        Some(r) => r.strip_prefix("localhost").unwrap_or(r),
+        None => rest,
+    };
+    if !path.starts_with('/') {
+        return None;
+    }
+    let b = path.as_bytes();
+    let hex = |i: usize| b.get(i).and_then(|&c| (c as char).to_digit(16));
+    let mut out = Vec::with_capacity(b.len());
+    let mut i = 0;
+    while i < b.len() {
+        if b[i] == b'%' {
+            out.push((hex(i + 1)? * 16 + hex(i + 2)?) as u8);
+            i += 3;
+        } else {
+            out.push(b[i]);
+            i += 1;
+        }
+    }
+    String::from_utf8(out).ok().map(PathBuf::from)
 }
 
 /// Calls a C logger with `"%s"` and the message, so the text is never a format string.
@@ -197,4 +229,29 @@ pub fn with_instance(
             ERROR
         })
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn resource_uris_become_folders() {
+        let f = |u: &str| resources_of_uri(u).map(|p| p.to_string_lossy().into_owned());
+        assert_eq!(
+            f("file:///tmp/x/resources").as_deref(),
+            Some("/tmp/x/resources")
+        );
+        assert_eq!(f("file:/tmp/x").as_deref(), Some("/tmp/x"));
+        assert_eq!(f("file://localhost/tmp/x").as_deref(), Some("/tmp/x"));
+        assert_eq!(
+            f("file:///tmp/a%20b/r%C3%A9s").as_deref(),
+            Some("/tmp/a b/rés")
+        );
+        assert_eq!(f("http://host/x"), None);
+        assert_eq!(f("file://host/x"), None);
+        assert_eq!(f("file:///bad%2"), None);
+        assert_eq!(f("file:///bad%zz"), None);
+        assert_eq!(f("/tmp/x"), None);
+    }
 }

@@ -5,6 +5,7 @@
 use crate::drive::{Drive, clamp_speed};
 use crate::variables::{Input, Kind, Output, Role, by_vr, table};
 use bldc_drive::drive_core::{TICK_S, Ticks};
+use std::path::PathBuf;
 
 /// Where an instance is in the co-simulation state machine (FMI 2.0 §4.2.4).
 #[derive(Copy, Clone, Debug, PartialEq, Eq)]
@@ -39,6 +40,8 @@ pub enum Access {
     Integer,
     /// `fmi2Get/SetBoolean`.
     Boolean,
+    /// `fmi2Get/SetString`.
+    String,
 }
 
 impl Access {
@@ -48,6 +51,7 @@ impl Access {
             (Access::Real, Kind::Real)
                 | (Access::Integer, Kind::Integer | Kind::Enumeration(_))
                 | (Access::Boolean, Kind::Boolean)
+                | (Access::String, Kind::String)
         )
     }
 }
@@ -58,6 +62,11 @@ pub struct Model {
     pub phase: Phase,
     /// Value of every variable, indexed by value reference (outputs are not stored).
     pub values: Vec<f64>,
+    /// Value of every String variable, indexed by value reference (empty for the others).
+    pub texts: Vec<String>,
+    /// The instance's `resources` folder (from `fmuResourceLocation`), against which a
+    /// relative `strategy.plugin` is resolved. Belongs to the instance, not to its states.
+    pub resources: Option<PathBuf>,
     /// `fmi2SetupExperiment` start time [s]: master tick 0 of the engine.
     pub start_time: f64,
     /// Stop time, if the master defined one [s].
@@ -84,6 +93,11 @@ impl Model {
         Model {
             phase: Phase::Instantiated,
             values: table().iter().map(|v| v.start().unwrap_or(0.0)).collect(),
+            texts: table()
+                .iter()
+                .map(|v| v.start_text().unwrap_or_default().to_string())
+                .collect(),
+            resources: None,
             start_time: 0.0,
             stop_time: None,
             time: 0.0,
@@ -96,6 +110,8 @@ impl Model {
         Ok(Model {
             phase: self.phase,
             values: self.values.clone(),
+            texts: self.texts.clone(),
+            resources: self.resources.clone(),
             start_time: self.start_time,
             stop_time: self.stop_time,
             time: self.time,
@@ -151,7 +167,8 @@ impl Model {
 
     fn ensure_drive(&mut self) -> Result<&mut Drive, Fault> {
         if self.drive.is_none() {
-            let d = Drive::new(&self.values).map_err(|e| Fault::Error(e.to_string()))?;
+            let d = Drive::new(&self.values, &self.texts, self.resources.as_deref())
+                .map_err(Fault::Error)?;
             self.drive = Some(d);
         }
         // Just built or kept: present either way.
@@ -167,9 +184,12 @@ impl Model {
         Ok(())
     }
 
-    /// `fmi2Reset`: back to the state right after instantiation, every start value again.
+    /// `fmi2Reset`: back to the state right after instantiation, every start value again
+    /// (the resources folder is the instance's and stays).
     pub fn reset(&mut self) {
+        let resources = self.resources.take();
         *self = Model::new();
+        self.resources = resources;
     }
 
     /// Marks the instance failed (after a panic or an engine error).
@@ -218,6 +238,11 @@ impl Model {
         let before_init = matches!(self.phase, Phase::Instantiated | Phase::InitializationMode);
         match v.role {
             Role::Output(_) => err(format!("`{}` is an output and cannot be set", v.name)),
+            // `checked` admits String variables only to Access::String (set_text).
+            Role::Text(_) => err(format!(
+                "`{}` is a String: set it with fmi2SetString",
+                v.name
+            )),
             Role::Parameter { .. } if !before_init => err(format!(
                 "`{}` is a fixed parameter: it can only be set before fmi2ExitInitializationMode (phase is {:?})",
                 v.name, self.phase
@@ -248,6 +273,41 @@ impl Model {
                 Ok(())
             }
         }
+    }
+
+    /// `fmi2GetString`: the values of `vrs`, borrowed until the model changes.
+    pub fn get_texts(&self, vrs: &[u32]) -> Result<Vec<&str>, Fault> {
+        self.require(
+            &[
+                Phase::InitializationMode,
+                Phase::StepComplete,
+                Phase::Terminated,
+                Phase::Error,
+            ],
+            "fmi2GetString",
+        )?;
+        vrs.iter()
+            .map(|&vr| {
+                checked(Access::String, vr)?;
+                Ok(self.texts[vr as usize].as_str())
+            })
+            .collect()
+    }
+
+    /// `fmi2SetString` of one variable: a fixed parameter, so only before initialization
+    /// ends. The text is copied; whether it names a usable plugin is checked when the
+    /// drive is built.
+    pub fn set_text(&mut self, vr: u32, x: &str) -> Result<(), Fault> {
+        let v = checked(Access::String, vr)?;
+        if !matches!(self.phase, Phase::Instantiated | Phase::InitializationMode) {
+            return err(format!(
+                "`{}` is a fixed parameter: it can only be set before fmi2ExitInitializationMode (phase is {:?})",
+                v.name, self.phase
+            ));
+        }
+        self.texts[vr as usize] = x.to_string();
+        self.drive = None;
+        Ok(())
     }
 
     /// `fmi2DoStep`: advances from `tc` to `tc + h`. The engine's clock is whole master
@@ -441,6 +501,44 @@ mod tests {
             m.set(Access::Real, vr("speed_ref_rpm"), 20_000.0),
             Err(Fault::Warning(_))
         ));
+    }
+
+    #[test]
+    fn the_plugin_path_is_a_fixed_string_parameter_checked_when_the_drive_is_built() {
+        let mut m = Model::new();
+        let p = vr("strategy.plugin");
+        m.resources = Some(PathBuf::from("/nonexistent/resources"));
+        assert!(
+            m.get_texts(&[p]).is_err(),
+            "no get before initialization mode"
+        );
+        m.enter_initialization().unwrap();
+        assert_eq!(m.get_texts(&[p]).unwrap(), [""]);
+        assert!(m.set(Access::Real, p, 1.0).is_err());
+        assert!(m.set_text(vr("motor.poles"), "12").is_err());
+        m.set_text(p, "plugin.so").unwrap();
+        assert_eq!(m.get_texts(&[p]).unwrap(), ["plugin.so"]);
+        let Err(Fault::Error(msg)) = m.exit_initialization() else {
+            panic!("a missing plugin was accepted")
+        };
+        assert!(
+            msg.contains("`plugin.so`") && msg.contains("/nonexistent/resources/plugin.so"),
+            "{msg}"
+        );
+        assert!(msg.contains("rule"), "{msg}");
+        assert_eq!(m.phase, Phase::InitializationMode);
+        m.set_text(p, "").unwrap();
+        m.exit_initialization().unwrap();
+        assert!(
+            m.set_text(p, "plugin.so").is_err(),
+            "fixed after initialization"
+        );
+        m.reset();
+        assert_eq!(m.texts[p as usize], "");
+        assert!(
+            m.resources.is_some(),
+            "the instance keeps its resources folder"
+        );
     }
 
     #[test]

@@ -1,13 +1,15 @@
-//! Serialized FMU states: the variable values the drive was built from, every input change
-//! and communication point since, and the phase and clocks. Deserializing rebuilds the
+//! Serialized FMU states: the variable values (numbers and strings) the drive was built
+//! from, every input change and communication point since, and the phase and clocks. Deserializing rebuilds the
 //! drive and replays the record, which reproduces it bit for bit because the simulation is
 //! deterministic; the cost is the simulated time since initialization.
 
 use crate::drive::{Drive, Event};
 use crate::model::{Model, Phase};
 use crate::xml::guid;
+use std::path::Path;
 
-const MAGIC: &[u8; 8] = b"BLDCFMU1";
+// 2: String values (strategy.plugin) follow the numbers.
+const MAGIC: &[u8; 8] = b"BLDCFMU2";
 
 /// An FMU state as handed to the master (`fmi2FMUstate` points to one).
 pub struct Snapshot {
@@ -25,11 +27,13 @@ pub fn serialize(m: &Model) -> Vec<u8> {
     put_f64(&mut w, m.stop_time.unwrap_or(f64::NAN));
     put_f64(&mut w, m.time);
     put_f64s(&mut w, &m.values);
+    put_texts(&mut w, &m.texts);
     match &m.drive {
         None => w.push(0),
         Some(d) => {
             w.push(1);
             put_f64s(&mut w, &d.built_from);
+            put_texts(&mut w, &d.built_from_texts);
             put_u64(&mut w, d.events.len() as u64);
             for e in &d.events {
                 match *e {
@@ -50,11 +54,17 @@ pub fn serialize(m: &Model) -> Vec<u8> {
     w
 }
 
-/// The instance a state's bytes describe, or what is wrong with them.
-pub fn deserialize(bytes: &[u8]) -> Result<Model, String> {
+/// The instance a state's bytes describe, or what is wrong with them. A plugin is loaded
+/// again, a relative path inside `resources` (the deserializing instance's folder).
+pub fn deserialize(bytes: &[u8], resources: Option<&Path>) -> Result<Model, String> {
     let mut r = Reader { b: bytes };
-    if r.take(8)? != MAGIC {
-        return Err("not a serialized state of this FMU (bad magic)".into());
+    let magic = r.take(8)?;
+    if magic != MAGIC {
+        return Err(format!(
+            "bad magic {:?} (rule: a state serialized by this FMU version starts with {:?})",
+            String::from_utf8_lossy(magic),
+            String::from_utf8_lossy(MAGIC)
+        ));
     }
     let g = r.bytes()?;
     if g != guid().as_bytes() {
@@ -69,17 +79,20 @@ pub fn deserialize(bytes: &[u8]) -> Result<Model, String> {
     let stop = r.f64()?;
     let time = r.f64()?;
     let values = r.f64s()?;
-    if values.len() != crate::variables::table().len() {
+    let texts = r.texts()?;
+    let n = crate::variables::table().len();
+    if values.len() != n || texts.len() != n {
         return Err("state has the wrong number of variables".into());
     }
     let drive = match r.u8()? {
         0 => None,
         1 => {
             let built_from = r.f64s()?;
-            if built_from.len() != values.len() {
+            let built_texts = r.texts()?;
+            if built_from.len() != n || built_texts.len() != n {
                 return Err("state has the wrong number of variables".into());
             }
-            let mut d = Drive::new(&built_from).map_err(|e| e.to_string())?;
+            let mut d = Drive::new(&built_from, &built_texts, resources)?;
             let n = r.u64()?;
             for _ in 0..n {
                 let e = match r.u8()? {
@@ -109,6 +122,8 @@ pub fn deserialize(bytes: &[u8]) -> Result<Model, String> {
     Ok(Model {
         phase,
         values,
+        texts,
+        resources: resources.map(Path::to_path_buf),
         start_time,
         stop_time: (!stop.is_nan()).then_some(stop),
         time,
@@ -155,6 +170,11 @@ fn put_bytes(w: &mut Vec<u8>, b: &[u8]) {
     w.extend_from_slice(b);
 }
 
+fn put_texts(w: &mut Vec<u8>, ts: &[String]) {
+    put_u64(w, ts.len() as u64);
+    ts.iter().for_each(|t| put_bytes(w, t.as_bytes()));
+}
+
 /// Reads little-endian fields; every read checks the length.
 struct Reader<'a> {
     b: &'a [u8],
@@ -195,6 +215,15 @@ impl<'a> Reader<'a> {
     fn bytes(&mut self) -> Result<&'a [u8], String> {
         let n = self.len()?;
         self.take(n)
+    }
+    fn texts(&mut self) -> Result<Vec<String>, String> {
+        let n = self.len()?;
+        (0..n)
+            .map(|_| {
+                let b = self.bytes()?;
+                String::from_utf8(b.to_vec()).map_err(|e| format!("a String value: {e}"))
+            })
+            .collect()
     }
 }
 
@@ -240,7 +269,7 @@ mod tests {
             .unwrap();
         run(&mut m, 0.05, 0.7e-3);
         let bytes = serialize(&m);
-        let mut copy = deserialize(&bytes).unwrap();
+        let mut copy = deserialize(&bytes, None).unwrap();
         assert_eq!(serialize(&copy), bytes);
         run(&mut m, 0.1, 1e-3);
         run(&mut copy, 0.1, 1e-3);
@@ -252,11 +281,17 @@ mod tests {
     fn damaged_bytes_are_refused() {
         let m = Model::new();
         let bytes = serialize(&m);
-        assert!(deserialize(&bytes).is_ok());
-        assert!(deserialize(&bytes[..bytes.len() - 1]).is_err());
-        assert!(deserialize(b"nonsense").is_err());
+        assert!(deserialize(&bytes, None).is_ok());
+        assert!(deserialize(&bytes[..bytes.len() - 1], None).is_err());
+        assert!(deserialize(b"nonsense", None).is_err());
         let mut other = bytes.clone();
         other[20] ^= 1; // inside the GUID
-        assert!(deserialize(&other).is_err());
+        assert!(deserialize(&other, None).is_err());
+        let mut old = bytes.clone();
+        old[7] = b'1'; // a state of the previous format, without String values
+        let Err(e) = deserialize(&old, None) else {
+            panic!("an old-format state was accepted")
+        };
+        assert!(e.contains("bad magic") && e.contains("BLDCFMU2"), "{e}");
     }
 }

@@ -1,7 +1,7 @@
 //! The rows of the variable table ([`crate::variables`]): each input, output and parameter
 //! with its unit, range, description and the config field it reads and writes.
 
-use crate::variables::{EnumType, Input, Kind, Output, Role, Variable};
+use crate::variables::{EnumType, Input, Kind, Output, Role, Text, Variable};
 use bldc_drive::DriveConfig;
 use bldc_drive::drive_core::ParamError;
 use bldc_drive::drive_core::pwm::PwmSchemeKind;
@@ -332,5 +332,8 @@ pub(crate) fn build_table() -> Vec<Variable> {
             "FG periods per speed measurement k [count]"),
         int!("control.speed_counter_bits", control.speed_counter_bits, Some(8.0), Some(32.0),
             "Width of the speed counter [bits]"),
+        // Strategy plugin: last, so adding it left every other value reference unchanged.
+        var("strategy.plugin", Kind::String, Role::Text(Text::StrategyPlugin), "",
+            "Strategy plugin: a shared library built against strategy-abi, as an absolute path or relative to the FMU's resources folder; its strategy replaces strategy.name. Empty: the built-in strategy.name"),
     ]
 }

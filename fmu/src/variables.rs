@@ -25,6 +25,8 @@ pub enum Kind {
     Integer,
     /// `fmi2Boolean`.
     Boolean,
+    /// `fmi2String` (its value lives in the model's texts, not in the f64 values).
+    String,
     /// An enumeration (accessed with `fmi2Get/SetInteger`), items numbered from 1.
     Enumeration(EnumType),
 }
@@ -112,6 +114,15 @@ pub enum Role {
     Input(Input),
     /// Computed by the drive.
     Output(Output),
+    /// A String parameter: fixed after initialization, read when the drive is built.
+    Text(Text),
+}
+
+/// A String parameter.
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+pub enum Text {
+    /// Path of a strategy plugin (empty: the built-in `strategy.name`).
+    StrategyPlugin,
 }
 
 /// One FMU variable.
@@ -141,7 +152,15 @@ impl Variable {
             Role::Input(Input::SpeedRef) => Some(DriveConfig::default().control.speed_ref_rpm),
             Role::Input(Input::LoadTorque) => Some(0.0),
             Role::Input(Input::Enable) => Some(1.0),
-            Role::Output(_) => None,
+            Role::Output(_) | Role::Text(_) => None,
+        }
+    }
+
+    /// The start value of a String variable.
+    pub fn start_text(&self) -> Option<&'static str> {
+        match self.role {
+            Role::Text(Text::StrategyPlugin) => Some(""),
+            _ => None,
         }
     }
 }

@@ -155,7 +155,7 @@ fn variables_text() -> String {
     let mut x = String::from("  <ModelVariables>\n");
     for (vr, v) in table().iter().enumerate() {
         let (causality, variability, initial) = match v.role {
-            Role::Parameter { .. } => ("parameter", "fixed", Some("exact")),
+            Role::Parameter { .. } | Role::Text(_) => ("parameter", "fixed", Some("exact")),
             Role::Input(_) => ("input", discrete_unless_real(v), None),
             Role::Output(_) => ("output", discrete_unless_real(v), Some("calculated")),
         };
@@ -183,6 +183,10 @@ fn discrete_unless_real(v: &Variable) -> &'static str {
 }
 
 fn type_element(v: &Variable) -> String {
+    if v.kind == Kind::String {
+        let start = v.start_text().unwrap_or_default();
+        return format!("<String start=\"{}\"/>", esc(start));
+    }
     let mut attrs = String::new();
     if let Kind::Enumeration(t) = v.kind {
         let _ = write!(attrs, " declaredType=\"{}\"", t.type_name());
@@ -213,6 +217,7 @@ fn type_element(v: &Variable) -> String {
         Kind::Real => "Real",
         Kind::Integer => "Integer",
         Kind::Boolean => "Boolean",
+        Kind::String => "String",
         Kind::Enumeration(_) => "Enumeration",
     };
     format!("<{tag}{attrs}/>")
@@ -269,5 +274,11 @@ mod tests {
         }
         assert!(x.contains("name=\"motor.resistance_ohm\""));
         assert!(x.contains("<Real unit=\"Ohm\" min=\"0.0\" start=\"2.2\"/>"));
+        // Appended last, so the older variables kept their value references.
+        let last = table().len() - 1;
+        assert!(x.contains(&format!(
+            "name=\"strategy.plugin\" valueReference=\"{last}\""
+        )));
+        assert!(x.contains("<String start=\"\"/>"));
     }
 }

@@ -4,37 +4,18 @@
 
 use bldc_drive::DriveConfig;
 use bldc_drive::drive::{build, run_to};
-use fmi::fmi2::import::Fmi2Import;
 use fmi::fmi2::instance::{CoSimulation, Common};
-use fmi::traits::{FmiImport, FmiInstance, FmiStatus};
-use std::path::PathBuf;
-use std::sync::OnceLock;
+use fmi::traits::{FmiInstance, FmiStatus};
+
+mod common;
+
+use common::{import, vr};
 
 const H: f64 = 0.5e-3;
 const SPEED_REF: f64 = 3500.0;
 const LOAD_AT_STEP: u32 = 2000; // 1.0 s
 const LOAD_NM: f64 = 1e-4;
 const STEPS: u32 = 3000; // 1.5 s
-
-/// Packages the FMU once per test process (tests run in parallel).
-fn import() -> Fmi2Import {
-    static FMU: OnceLock<Result<PathBuf, String>> = OnceLock::new();
-    let path = FMU.get_or_init(xtask::package_fmu);
-    let path = path
-        .as_ref()
-        .unwrap_or_else(|e| panic!("packaging the FMU failed: {e}"));
-    fmi::import::from_path(path).expect("the fmi crate imports the FMU")
-}
-
-fn vr(import: &Fmi2Import, name: &str) -> u32 {
-    let md = import.model_description();
-    md.model_variables
-        .variables
-        .iter()
-        .find(|v| v.name == name)
-        .unwrap_or_else(|| panic!("`{name}` is in modelDescription.xml"))
-        .value_reference
-}
 
 /// (t, speed_rpm, i_u) every 10 ms of the native run.
 fn native() -> Vec<(f64, f64, f64)> {

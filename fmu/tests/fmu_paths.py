@@ -7,6 +7,10 @@ ROOT = os.path.abspath(os.path.join(os.path.dirname(__file__), "..", ".."))
 TARGET = os.environ.get("CARGO_TARGET_DIR", os.path.join(ROOT, "target"))
 FMU = os.path.join(TARGET, "fmu", "BldcDrive.fmu")
 NATIVE_TRACE = os.path.join(TARGET, "release", "native-trace")
+# Built by scripts/test.sh (`cargo build --profile test -p example-plugin -p misbehaving-plugin`).
+PLUGIN_DIR = os.path.join(TARGET, "debug")
+EXAMPLE_PLUGIN = os.path.join(PLUGIN_DIR, "libexample_plugin.so")
+MISBEHAVING_PLUGIN = os.path.join(PLUGIN_DIR, "libmisbehaving_plugin.so")
 
 
 def require_built():
@@ -14,6 +18,14 @@ def require_built():
     for path in (FMU, NATIVE_TRACE):
         if not os.path.exists(path):
             sys.exit(f"FAIL: {path} is missing: run `cargo xtask fmu` first")
+
+
+def require_plugins():
+    """Fails (never skips) when the plugin crates have not been built."""
+    for path in (EXAMPLE_PLUGIN, MISBEHAVING_PLUGIN):
+        if not os.path.exists(path):
+            sys.exit(f"FAIL: {path} is missing: run "
+                     "`cargo build --profile test -p example-plugin -p misbehaving-plugin` first")
 
 
 def check(cond, what):

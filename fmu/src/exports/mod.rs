@@ -10,7 +10,7 @@ pub mod values;
 
 use crate::ffi::{
     CallbackFunctions, Category, ERROR, Handle, Instance, OK, Status, guarded, log_raw, register,
-    unregister, with_instance,
+    resources_of_uri, unregister, with_instance,
 };
 use crate::model::Fault;
 use crate::xml::{LOG_CATEGORIES, guid};
@@ -124,7 +124,7 @@ pub unsafe extern "C" fn fmi2Instantiate(
     instance_name: *const c_char,
     fmu_type: c_int,
     fmu_guid: *const c_char,
-    _resource_location: *const c_char,
+    resource_location: *const c_char,
     functions: *const CallbackFunctions,
     _visible: c_int,
     logging_on: c_int,
@@ -175,7 +175,12 @@ pub unsafe extern "C" fn fmi2Instantiate(
                 guid()
             ));
         }
-        let inst = Instance::new(name, &cb, logging_on != 0);
+        let mut inst = Instance::new(name, &cb, logging_on != 0);
+        if !resource_location.is_null() {
+            // SAFETY: a NUL-terminated string per the FMI contract; copied, not kept.
+            let uri = unsafe { CStr::from_ptr(resource_location) }.to_string_lossy();
+            inst.model.resources = resources_of_uri(&uri);
+        }
         inst.log(OK, Category::Events, "instantiated");
         let p = Box::into_raw(Box::new(inst)).cast::<c_void>();
         register(Handle::Instance, p);

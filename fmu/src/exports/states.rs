@@ -81,7 +81,9 @@ pub unsafe extern "C" fn fmi2SetFMUstate(c: Component, state: FmuState) -> Statu
             }
             // SAFETY: live.
             match unsafe { snapshot(state) }.model.try_clone() {
-                Ok(m) => {
+                Ok(mut m) => {
+                    // The resources folder is this instance's, whoever took the state.
+                    m.resources = inst.model.resources.take();
                     inst.model = m;
                     inst.log(OK, Category::Events, "FMU state restored");
                     OK
@@ -214,7 +216,7 @@ pub unsafe extern "C" fn fmi2DeSerializeFMUstate(
             }
             // SAFETY: non-null when size > 0; `size` bytes per the FMI contract.
             let data = unsafe { slice(bytes.cast::<u8>(), size) };
-            let model = match deserialize(data) {
+            let model = match deserialize(data, inst.model.resources.as_deref()) {
                 Ok(m) => m,
                 Err(e) => return state_error(inst, CALL, format!("bad serialized state: {e}")),
             };

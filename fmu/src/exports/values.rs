@@ -3,7 +3,7 @@
 use super::{Component, null_error, slice, slice_mut};
 use crate::ffi::{ERROR, OK, Status, guarded, with_instance};
 use crate::model::{Access, Fault};
-use std::ffi::{c_char, c_int, c_uint};
+use std::ffi::{CStr, CString, c_char, c_int, c_uint};
 
 /// Shared body of the four getters.
 ///
@@ -120,19 +120,41 @@ pub unsafe extern "C" fn fmi2GetBoolean(
     }
 }
 
-/// `fmi2GetString`: the model has no String variables.
+/// `fmi2GetString`: the returned pointers point into the instance and stay valid until
+/// the next `fmi2GetString` on it (FMI requires: until the next call of any kind).
 ///
 /// # Safety
-/// FMI contract: `vr` holds `nvr` entries.
+/// FMI contract: `vr` and `value` hold `nvr` entries.
 #[unsafe(no_mangle)]
 pub unsafe extern "C" fn fmi2GetString(
     c: Component,
     vr: *const c_uint,
     nvr: usize,
-    _value: *mut *const c_char,
+    value: *mut *const c_char,
 ) -> Status {
-    // SAFETY: forwarded contract.
-    unsafe { no_strings(c, "fmi2GetString", vr, nvr) }
+    const CALL: &str = "fmi2GetString";
+    guarded(ERROR, || {
+        with_instance(c, CALL, |inst| {
+            if nvr > 0 && (vr.is_null() || value.is_null()) {
+                return null_error(inst, CALL, "vr or value");
+            }
+            // SAFETY: non-null when nvr > 0; sizes per the FMI contract.
+            let (vrs, out) = unsafe { (slice(vr, nvr), slice_mut(value, nvr)) };
+            let texts = match inst.model.get_texts(vrs) {
+                // Set from C strings, so never with an inner NUL.
+                Ok(t) => t
+                    .iter()
+                    .map(|t| CString::new(*t).unwrap_or_default())
+                    .collect(),
+                Err(f) => return inst.report(CALL, Err(f)),
+            };
+            inst.strings_out = texts;
+            for (o, t) in out.iter_mut().zip(&inst.strings_out) {
+                *o = t.as_ptr();
+            }
+            OK
+        })
+    })
 }
 
 /// `fmi2SetReal`.
@@ -194,38 +216,45 @@ pub unsafe extern "C" fn fmi2SetBoolean(
     }
 }
 
-/// `fmi2SetString`: the model has no String variables.
+/// `fmi2SetString`: each string is copied; every value is tried, the worst status wins.
 ///
 /// # Safety
-/// FMI contract: `vr` holds `nvr` entries.
+/// FMI contract: `vr` and `value` hold `nvr` entries, each a NUL-terminated string.
 #[unsafe(no_mangle)]
 pub unsafe extern "C" fn fmi2SetString(
     c: Component,
     vr: *const c_uint,
     nvr: usize,
-    _value: *const *const c_char,
+    value: *const *const c_char,
 ) -> Status {
-    // SAFETY: forwarded contract.
-    unsafe { no_strings(c, "fmi2SetString", vr, nvr) }
-}
-
-/// # Safety
-/// `vr` holds `nvr` entries.
-unsafe fn no_strings(c: Component, call: &'static str, vr: *const c_uint, nvr: usize) -> Status {
+    const CALL: &str = "fmi2SetString";
     guarded(ERROR, || {
-        with_instance(c, call, |inst| {
-            if nvr == 0 {
-                return OK;
+        with_instance(c, CALL, |inst| {
+            if nvr > 0 && (vr.is_null() || value.is_null()) {
+                return null_error(inst, CALL, "vr or value");
             }
-            if vr.is_null() {
-                return null_error(inst, call, "vr");
+            // SAFETY: non-null when nvr > 0; sizes per the FMI contract.
+            let (vrs, vals) = unsafe { (slice(vr, nvr), slice(value, nvr)) };
+            let mut worst = OK;
+            for (k, (&r, &p)) in vrs.iter().zip(vals).enumerate() {
+                let res = if p.is_null() {
+                    Err(Fault::Error(format!(
+                        "value[{k}] (value reference {r}) is NULL (rule: a NUL-terminated UTF-8 string; \"\" for empty)"
+                    )))
+                } else {
+                    // SAFETY: non-null, NUL-terminated per the FMI contract; copied here.
+                    let text = unsafe { CStr::from_ptr(p) };
+                    match text.to_str() {
+                        Ok(t) => inst.model.set_text(r, t),
+                        Err(e) => Err(Fault::Error(format!(
+                            "value[{k}] (value reference {r}) = {:?} is not UTF-8 ({e}) (rule: FMI strings are UTF-8)",
+                            text.to_string_lossy()
+                        ))),
+                    }
+                };
+                worst = worst.max(inst.report(CALL, res));
             }
-            // SAFETY: non-null, `nvr` entries.
-            let first = unsafe { slice(vr, nvr) }[0];
-            let msg = format!(
-                "value reference {first} is not a String variable (rule: this model has none)"
-            );
-            inst.report(call, Err(Fault::Error(msg)))
+            worst
         })
     })
 }
