@@ -136,3 +136,29 @@ fn sampling_the_drive_does_not_change_its_trajectory() {
     assert_eq!(quiet.0, sampled.0);
     assert_eq!(quiet.1, sampled.1);
 }
+
+/// Nor does the size of the pieces a co-simulation master runs it in: the drive run to
+/// 1.5 s in one call, in 1 ms pieces and in 37 µs pieces (not a divisor of anything the
+/// chip uses) ends in the same state.
+#[test]
+fn running_in_pieces_does_not_change_the_trajectory() {
+    use bldc_drive::DriveConfig;
+    use bldc_drive::drive::{build, run_to};
+    let run = |piece_s: f64| {
+        let mut e = build(&DriveConfig::default()).expect("defaults are valid");
+        let n = (1.5 / piece_s).round() as u32;
+        for k in 1..=n {
+            run_to(&mut e, (f64::from(k) * piece_s).min(1.5), |_, _| {}).unwrap();
+        }
+        run_to(&mut e, 1.5, |_, _| {}).unwrap();
+        (e.plant.observe(), e.plant.energy())
+    };
+    let whole = run(1.5);
+    assert!(
+        whole.0.speed_rpm > 1000.0,
+        "the drive is running: {:?}",
+        whole.0
+    );
+    assert_eq!(whole, run(1e-3));
+    assert_eq!(whole, run(37e-6));
+}

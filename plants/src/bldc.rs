@@ -851,6 +851,11 @@ impl Plant for BldcPlant {
             // Integrate up to the horizon, not just to `until`: instants before it are
             // served from this step (see `Lookahead`) unless the dynamics change first.
             let mut t1 = watch.horizon.max(until).seconds().min(t0 + self.h_max);
+            // A step of the longest length that lands on a tick takes that tick's own time,
+            // so it ends where a step cut there by the engine would (bit for bit).
+            if let (k, true) = Self::ceil_tick(t1) {
+                t1 = k.seconds();
+            }
             if let Some(e) = pending {
                 t1 = t1.min(e.seconds());
             }
