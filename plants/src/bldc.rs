@@ -831,6 +831,25 @@ impl Plant for BldcPlant {
     }
 
     fn advance(&mut self, until: Ticks, watch: Watch) -> PlantStop {
+        // Unwatched comparators are walked only as far as they are read: at the instant
+        // returned, and from now on for the channels watched now.
+        self.cmp.watch(watch.channels);
+        let stop = self.step_to(until, watch);
+        self.cmp.catch_up(Self::ceil_tick(self.t).0);
+        stop
+    }
+
+    fn sensed(&self, at: Ticks) -> Sensed {
+        Sensed {
+            zc: self.cmp.outputs_at(at),
+            current_code: self.cur.code_at(at),
+        }
+    }
+}
+
+impl BldcPlant {
+    /// [`Plant::advance`] without the comparator bookkeeping around it.
+    fn step_to(&mut self, until: Ticks, watch: Watch) -> PlantStop {
         let t_end = until.seconds();
         loop {
             if let Some(stop) = self.serve_lookahead(t_end, watch) {
@@ -896,6 +915,7 @@ impl Plant for BldcPlant {
                 self.start.v_n,
                 &s1.v_term,
                 s1.v_n,
+                watch.channels,
             );
             self.cur.update(
                 t0,
@@ -930,13 +950,6 @@ impl Plant for BldcPlant {
             if let Some(stop) = self.finish_step(x1, f1, t0, t1, s1, event) {
                 return stop;
             }
-        }
-    }
-
-    fn sensed(&self, at: Ticks) -> Sensed {
-        Sensed {
-            zc: self.cmp.outputs_at(at),
-            current_code: self.cur.code_at(at),
         }
     }
 }

@@ -117,6 +117,21 @@ impl Channel {
     }
 }
 
+/// One channel's scan of one step, resumable: the next tick to decide and the factors
+/// there. A channel nobody watches is scanned only as far as someone reads it.
+#[derive(Clone, Debug)]
+struct Cursor {
+    c: Channel,
+    k: u64,
+    k_end: u64,
+    /// e^{−τ/τp}, e^{−τ/τn} and the ringing phasor at tick `k`.
+    dp: f64,
+    dn: f64,
+    z: (f64, f64),
+    /// e^{−τ/τp}, e^{−τ/τn} at `k_end`.
+    w_end: [f64; 2],
+}
+
 /// The three comparators, their filters, the coupled ringing and the noise.
 #[derive(Clone, Debug)]
 pub struct ComparatorBank {
@@ -147,6 +162,8 @@ pub struct ComparatorBank {
     y_n: f64,
     out: Abc<bool>,
     hist: [History; 3],
+    /// Scans of the present step not yet walked, for channels nobody watches.
+    pending: [Option<Cursor>; 3],
     /// Ringing phasor (re, im) referred to `ring_t`: ring(t) = Im(Z·e^{(−1/τr + jω)(t − ring_t)}).
     ring: (f64, f64),
     ring_t: f64,
@@ -215,6 +232,7 @@ impl ComparatorBank {
                 History::new(out.v),
                 History::new(out.w),
             ],
+            pending: [None, None, None],
             ring: (0.0, 0.0),
             ring_t: 0.0,
             ring_mag: 0.0,
@@ -265,12 +283,25 @@ impl ComparatorBank {
     }
 
     /// Advances the filters over [t0, t1] with terminal/neutral voltages varying linearly
-    /// from (`v0`, `vn0`) to (`v1`, `vn1`), recording every output toggle on the tick grid.
-    pub fn update(&mut self, t0: f64, t1: f64, v0: &Abc<f64>, vn0: f64, v1: &Abc<f64>, vn1: f64) {
+    /// from (`v0`, `vn0`) to (`v1`, `vn1`), recording every output toggle on the tick grid:
+    /// now for the `watched` channels, as far as they are read for the others (see
+    /// [`ComparatorBank::catch_up`]).
+    #[allow(clippy::too_many_arguments)]
+    pub fn update(
+        &mut self,
+        t0: f64,
+        t1: f64,
+        v0: &Abc<f64>,
+        vn0: f64,
+        v1: &Abc<f64>,
+        vn1: f64,
+        watched: Abc<bool>,
+    ) {
         let h = t1 - t0;
         if h <= 0.0 {
             return;
         }
+        self.finish_pending(u64::MAX);
         let mut env0 = self.ring_envelope(t0);
         if self.ring_mag != 0.0 && env0 < 1e-9 {
             // Decayed below a nanovolt: drop it so later bounds skip the envelope.
@@ -308,7 +339,20 @@ impl ComparatorBank {
                     ]
                 });
                 let z = *z0.get_or_insert_with(|| self.ring_at_phasor(k_start as f64 * TICK_S));
-                self.scan(&c, k_start, k_end, d, z);
+                let mut cur = Cursor {
+                    c,
+                    k: k_start,
+                    k_end,
+                    dp: d[0],
+                    dn: d[1],
+                    z,
+                    w_end: [d[2], d[3]],
+                };
+                if watched.get(x) {
+                    self.scan_to(&mut cur, k_end);
+                } else {
+                    self.pending[x.index()] = Some(cur);
+                }
             }
             *self.y.get_mut(x) = fx.at_decayed(h, w[2]);
             self.last.0[x.index()] = fx;
@@ -334,6 +378,7 @@ impl ComparatorBank {
     /// Cuts the last update short at `t` (a tick instant inside it): toggles after `t` are
     /// forgotten and the filters take their values at `t`.
     pub fn truncate_at(&mut self, t: Ticks) {
+        self.finish_pending(t.0);
         let tau = t.seconds() - self.last.2;
         for x in Phase::ALL {
             *self.y.get_mut(x) = self.last.0[x.index()].at(tau);
@@ -344,22 +389,22 @@ impl ComparatorBank {
         self.y_n = self.last.1.at(tau);
     }
 
-    /// Walks the ticks `k_start..=k_end` of the step where a toggle is possible.
-    /// `d` = decay factors (e^{−τ/τp}, e^{−τ/τn}) at the first tick, then at the last;
-    /// `z` = the ringing phasor at the first tick.
-    fn scan(&mut self, c: &Channel, k_start: u64, k_end: u64, d: [f64; 4], z: (f64, f64)) {
+    /// Walks the ticks of `cur`'s step up to `k_stop` (at most its last) where a toggle is
+    /// possible, and leaves `cur` at the next tick.
+    fn scan_to(&mut self, cur: &mut Cursor, k_stop: u64) {
+        let c = &cur.c;
         let x = c.x;
         let ch = x.index();
         let key = noise::channel_key(self.seed, ch as u64);
         self.scans += 1;
-        let mut k = k_start;
+        let (k_end, stop) = (cur.k_end, k_stop.min(cur.k_end));
+        let mut k = cur.k;
         let t_end = k_end as f64 * TICK_S - c.t0;
-        let w_end = [d[2], d[3]];
+        let w_end = cur.w_end;
         // Decay factors and the ringing phasor at the current tick, carried from segment to
         // segment by multiplication. The phasor's magnitude is the ringing envelope, which
         // bounds the ringing from there on.
-        let (mut dp, mut dn) = (d[0], d[1]);
-        let mut z = z;
+        let (mut dp, mut dn, mut z) = (cur.dp, cur.dn, cur.z);
         let mut check_rest = true;
         let mut rest = (0.0, 0.0);
         // Quiet segments before the rest of the step is bounded again: few at first (the
@@ -368,20 +413,21 @@ impl ComparatorBank {
         let mut quiet = 0u32;
         let mut recheck = 2u32;
         let mut m = k / self.noise_n; // noise sample index, one per segment
-        while k <= k_end {
+        while k <= stop {
             let ta = k as f64 * TICK_S - c.t0;
             let env = (z.0 * z.0 + z.1 * z.1).sqrt();
             if check_rest || quiet >= recheck {
                 recheck = if check_rest { 2 } else { (2 * recheck).min(64) };
                 let r = self.range(c, ta, t_end, [dp, dn, w_end[0], w_end[1]], env);
                 if !self.can_toggle(x, r.0, r.1, -self.noise_a, self.noise_a) {
+                    cur.k = k_end + 1; // nothing more can happen in this step
                     return;
                 }
                 rest = r;
                 check_rest = false;
                 quiet = 0;
             }
-            let seg_end = ((m + 1) * self.noise_n - 1).min(k_end);
+            let seg_end = ((m + 1) * self.noise_n - 1).min(stop);
             let n = noise::uniform_keyed(key, m, self.noise_a);
             let span = seg_end - k;
             let full = span + 1 == self.noise_n;
@@ -440,6 +486,100 @@ impl ComparatorBank {
                 dp *= self.q_p.powi(span as i32 + 1);
                 dn *= self.q_n.powi(span as i32 + 1);
                 z = self.ring_at_phasor(k as f64 * TICK_S);
+            }
+        }
+        (cur.k, cur.dp, cur.dn, cur.z) = (k, dp, dn, z);
+    }
+
+    /// The output over ticks `a..=b` of `cur`'s step if the comparator input is beyond a
+    /// threshold there whatever the noise and ringing: then it does not depend on the
+    /// ticks before.
+    fn certain_over(&self, cur: &Cursor, a: u64, b: u64) -> Option<bool> {
+        let c = &cur.c;
+        let (ta, tb) = (a as f64 * TICK_S - c.t0, b as f64 * TICK_S - c.t0);
+        let w = [
+            (-ta / self.tau_p).exp(),
+            (-ta / self.tau_n).exp(),
+            (-tb / self.tau_p).exp(),
+            (-tb / self.tau_n).exp(),
+        ];
+        // The ringing only decays after the cursor's tick.
+        let env = (cur.z.0 * cur.z.0 + cur.z.1 * cur.z.1).sqrt();
+        let (lo, hi) = self.range(c, ta, tb, w, env);
+        if lo - self.noise_a > self.half_h {
+            Some(true)
+        } else if hi + self.noise_a < -self.half_h {
+            Some(false)
+        } else {
+            None
+        }
+    }
+
+    /// Sets channel `cur`'s output to `level` from tick `k` on (a toggle there if it
+    /// differs) and moves the cursor past `k`.
+    fn settle_at(&mut self, cur: &mut Cursor, k: u64, level: bool) {
+        let x = cur.c.x;
+        if self.out.get(x) != level {
+            *self.out.get_mut(x) = level;
+            self.hist[x.index()].push(k, level);
+            self.toggles += 1;
+        }
+        cur.k = k + 1;
+        let tau = cur.k as f64 * TICK_S - cur.c.t0;
+        (cur.dp, cur.dn) = ((-tau / self.tau_p).exp(), (-tau / self.tau_n).exp());
+        cur.z = self.ring_at_phasor(cur.k as f64 * TICK_S);
+    }
+
+    /// Brings the channels nobody watches up to what is read at instant `at` (the output at
+    /// `at` − delay). Where the input is certainly beyond a threshold at that tick, the
+    /// ticks before it need not be walked: what is read is the same.
+    pub fn catch_up(&mut self, at: Ticks) {
+        let q = at.0.saturating_sub(self.delay);
+        for ch in 0..3 {
+            let Some(mut cur) = self.pending[ch].take() else {
+                continue;
+            };
+            if cur.k <= q.min(cur.k_end) {
+                let q = q.min(cur.k_end);
+                match self.certain_over(&cur, q, q) {
+                    Some(level) => self.settle_at(&mut cur, q, level),
+                    None => self.scan_to(&mut cur, q),
+                }
+            }
+            if cur.k <= cur.k_end {
+                self.pending[ch] = Some(cur);
+            }
+        }
+    }
+
+    /// Walks the rest of the present step for the `watched` channels: their changes are
+    /// looked for tick by tick from now on.
+    pub fn watch(&mut self, watched: Abc<bool>) {
+        for x in Phase::ALL.into_iter().filter(|&x| watched.get(x)) {
+            if let Some(mut cur) = self.pending[x.index()].take() {
+                self.scan_to(&mut cur, u64::MAX);
+            }
+        }
+    }
+
+    /// Ends the pending scans at tick `k_stop` (or their step's end): every tick a later
+    /// read can reach (from the end − delay on) is decided exactly, or known.
+    fn finish_pending(&mut self, k_stop: u64) {
+        for ch in 0..3 {
+            let Some(mut cur) = self.pending[ch].take() else {
+                continue;
+            };
+            cur.k_end = cur.k_end.min(k_stop);
+            if cur.k > cur.k_end {
+                continue;
+            }
+            let a = cur.k.max(cur.k_end.saturating_sub(self.delay));
+            match self.certain_over(&cur, a, cur.k_end) {
+                Some(level) => self.settle_at(&mut cur, a, level),
+                None => {
+                    let end = cur.k_end;
+                    self.scan_to(&mut cur, end)
+                }
             }
         }
     }
@@ -555,6 +695,8 @@ impl ComparatorBank {
 mod tests {
     use super::*;
 
+    const ALL: Abc<bool> = Abc::splat(true);
+
     /// A noisy comparator sitting on its threshold toggles every few ticks.
     fn chattering() -> ComparatorParams {
         ComparatorParams {
@@ -575,7 +717,7 @@ mod tests {
         let mut long = ComparatorBank::new(&p, 7, &v, 0.0);
         let mut short = ComparatorBank::new(&p, 7, &v, 0.0);
         let n = 2000u64;
-        long.update(0.0, n as f64 * TICK_S, &v, 0.0, &v, 0.0);
+        long.update(0.0, n as f64 * TICK_S, &v, 0.0, &v, 0.0, ALL);
         let w = Abc::splat(true);
         for k in 0..n {
             // Queried at each instant as the engine would, before the plant moves on.
@@ -588,7 +730,15 @@ mod tests {
                     "tick {k}"
                 );
             }
-            short.update(k as f64 * TICK_S, (k + 1) as f64 * TICK_S, &v, 0.0, &v, 0.0);
+            short.update(
+                k as f64 * TICK_S,
+                (k + 1) as f64 * TICK_S,
+                &v,
+                0.0,
+                &v,
+                0.0,
+                ALL,
+            );
         }
         assert!(
             long.toggle_count() > 500,
@@ -603,7 +753,7 @@ mod tests {
         let p = chattering();
         let v = Abc::splat(0.0);
         let mut c = ComparatorBank::new(&p, 7, &v, 0.0);
-        c.update(0.0, 1000.0 * TICK_S, &v, 0.0, &v, 0.0);
+        c.update(0.0, 1000.0 * TICK_S, &v, 0.0, &v, 0.0, ALL);
         let all = Abc::splat(true);
         let first = c.next_visible_change(Ticks(0), all).expect("chatter");
         // Long after it became visible, but unreported: it must still be found.
@@ -631,7 +781,7 @@ mod tests {
             w: 0.5,
         };
         let mut c = ComparatorBank::new(&p, 1, &lo, 0.0);
-        c.update(0.0, 20e-6, &hi, 0.0, &hi, 0.0);
+        c.update(0.0, 20e-6, &hi, 0.0, &hi, 0.0, ALL);
         let (y, yn) = c.filtered();
         assert!((y.u - 0.5).abs() < 1e-6 && (y.v + 0.5).abs() < 1e-6 && yn.abs() < 1e-12);
         let out = c.outputs_at(Ticks(1000));
