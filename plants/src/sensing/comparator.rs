@@ -124,10 +124,12 @@ struct Cursor {
     c: Channel,
     k: u64,
     k_end: u64,
-    /// e^{−τ/τp}, e^{−τ/τn} and the ringing phasor at tick `k`.
+    /// e^{−τ/τp}, e^{−τ/τn} and the ringing phasor at tick `k`, unless `stale` (then the
+    /// phasor is an earlier one, whose magnitude still bounds the ringing).
     dp: f64,
     dn: f64,
     z: (f64, f64),
+    stale: bool,
     /// e^{−τ/τp}, e^{−τ/τn} at `k_end`.
     w_end: [f64; 2],
 }
@@ -346,6 +348,7 @@ impl ComparatorBank {
                     dp: d[0],
                     dn: d[1],
                     z,
+                    stale: false,
                     w_end: [d[2], d[3]],
                 };
                 if watched.get(x) {
@@ -392,6 +395,12 @@ impl ComparatorBank {
     /// Walks the ticks of `cur`'s step up to `k_stop` (at most its last) where a toggle is
     /// possible, and leaves `cur` at the next tick.
     fn scan_to(&mut self, cur: &mut Cursor, k_stop: u64) {
+        if cur.stale {
+            let tau = cur.k as f64 * TICK_S - cur.c.t0;
+            (cur.dp, cur.dn) = ((-tau / self.tau_p).exp(), (-tau / self.tau_n).exp());
+            cur.z = self.ring_at_phasor(cur.k as f64 * TICK_S);
+            cur.stale = false;
+        }
         let c = &cur.c;
         let x = c.x;
         let ch = x.index();
@@ -497,12 +506,12 @@ impl ComparatorBank {
     fn certain_over(&self, cur: &Cursor, a: u64, b: u64) -> Option<bool> {
         let c = &cur.c;
         let (ta, tb) = (a as f64 * TICK_S - c.t0, b as f64 * TICK_S - c.t0);
-        let w = [
-            (-ta / self.tau_p).exp(),
-            (-ta / self.tau_n).exp(),
-            (-tb / self.tau_p).exp(),
-            (-tb / self.tau_n).exp(),
-        ];
+        let (pa, na) = ((-ta / self.tau_p).exp(), (-ta / self.tau_n).exp());
+        let w = if a == b {
+            [pa, na, pa, na]
+        } else {
+            [pa, na, (-tb / self.tau_p).exp(), (-tb / self.tau_n).exp()]
+        };
         // The ringing only decays after the cursor's tick.
         let env = (cur.z.0 * cur.z.0 + cur.z.1 * cur.z.1).sqrt();
         let (lo, hi) = self.range(c, ta, tb, w, env);
@@ -525,9 +534,7 @@ impl ComparatorBank {
             self.toggles += 1;
         }
         cur.k = k + 1;
-        let tau = cur.k as f64 * TICK_S - cur.c.t0;
-        (cur.dp, cur.dn) = ((-tau / self.tau_p).exp(), (-tau / self.tau_n).exp());
-        cur.z = self.ring_at_phasor(cur.k as f64 * TICK_S);
+        cur.stale = true; // the factors are recomputed only if the scan resumes
     }
 
     /// Brings the channels nobody watches up to what is read at instant `at` (the output at
