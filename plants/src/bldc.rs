@@ -259,7 +259,7 @@ impl BldcPlant {
         self.stats
     }
 
-    /// Total comparator toggles so far.
+    /// Comparator toggles found so far (see [`ComparatorBank::toggle_count`]).
     pub fn comparator_toggles(&self) -> u64 {
         self.cmp.toggle_count()
     }

@@ -10,7 +10,8 @@
 //! The output has hysteresis (rises above +h/2, falls below −h/2), is decided on the 20 ns
 //! master-tick grid, and reaches the controller after a propagation delay. Toggles are found
 //! by scanning ticks only where bounds on the signal allow one, which keeps the comparators
-//! cheap while the input is far from its thresholds.
+//! cheap while the input is far from its thresholds; a channel nobody watches is scanned
+//! only as far as it is read, and not at all where its reading is certain anyway.
 
 use super::foh::Foh;
 use super::noise;
@@ -687,7 +688,8 @@ impl ComparatorBank {
             .map(|k| Ticks(k + self.delay))
     }
 
-    /// Total number of toggles so far (all channels).
+    /// Toggles found so far (all channels). Toggles of an unwatched channel that no read
+    /// needed walked (see [`ComparatorBank::catch_up`]) are not counted.
     pub fn toggle_count(&self) -> u64 {
         self.toggles
     }
