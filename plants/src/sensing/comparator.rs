@@ -549,6 +549,12 @@ impl ComparatorBank {
             };
             if cur.k <= q.min(cur.k_end) {
                 let q = q.min(cur.k_end);
+                // Usually the input stays beyond the threshold for the rest of the step
+                // (a driven leg between PWM edges): then the step is done with.
+                if let Some(level) = self.certain_over(&cur, q, cur.k_end) {
+                    self.settle_at(&mut cur, q, level);
+                    continue;
+                }
                 match self.certain_over(&cur, q, q) {
                     Some(level) => self.settle_at(&mut cur, q, level),
                     None => self.scan_to(&mut cur, q),
