@@ -346,23 +346,18 @@ impl BldcPlant {
         ])
     }
 
-    fn rk4(&self, x: &State, h: f64, base: (f64, f64, f64)) -> State {
-        self.rk4_k1(x, h, base).0
-    }
-
     /// One RK4 step from `x`, whose angle's sine and cosine are in `base` (the stages'
-    /// angles are reached by angle addition); also returns the derivative at the start
-    /// (for dense output).
-    fn rk4_k1(&self, x: &State, h: f64, base: (f64, f64, f64)) -> (State, State) {
+    /// angles are reached by angle addition).
+    fn rk4(&self, x: &State, h: f64, base: (f64, f64, f64)) -> State {
         self.rk4_from(x, h, base, self.deriv(x, base))
     }
 
-    /// [`BldcPlant::rk4_k1`] with the derivative at the start already known.
-    fn rk4_from(&self, x: &State, h: f64, base: (f64, f64, f64), k1: State) -> (State, State) {
+    /// [`BldcPlant::rk4`] with the derivative at the start, `k1`, already known.
+    fn rk4_from(&self, x: &State, h: f64, base: (f64, f64, f64), k1: State) -> State {
         let k2 = self.deriv(&(x + k1 * (0.5 * h)), base);
         let k3 = self.deriv(&(x + k2 * (0.5 * h)), base);
         let k4 = self.deriv(&(x + k3 * h), base);
-        (x + (k1 + (k2 + k3) * 2.0 + k4) * (h / 6.0), k1)
+        x + (k1 + (k2 + k3) * 2.0 + k4) * (h / 6.0)
     }
 
     /// Per-phase event functions: ≥ 0 while nothing happens, < 0 once a diode current has
@@ -886,7 +881,8 @@ impl BldcPlant {
                 Some((x, f)) if x == x0 => f,
                 _ => self.deriv(&x0, b0),
             };
-            let (mut x1, f0) = self.rk4_from(&x0, t1 - t0, b0, k1);
+            let f0 = k1;
+            let mut x1 = self.rk4_from(&x0, t1 - t0, b0, k1);
             let mut f1 = self.deriv(&x1, b0);
             let mut s1 = self.solve_near(&x1, b0);
             let mut event = None;

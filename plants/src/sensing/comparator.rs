@@ -555,7 +555,11 @@ impl ComparatorBank {
                     self.settle_at(&mut cur, q, level);
                     continue;
                 }
-                match self.certain_over(&cur, q, q) {
+                // Else the tick read alone (when it is not the step's last: just tried).
+                match (q < cur.k_end)
+                    .then(|| self.certain_over(&cur, q, q))
+                    .flatten()
+                {
                     Some(level) => self.settle_at(&mut cur, q, level),
                     None => self.scan_to(&mut cur, q),
                 }
