@@ -20,17 +20,26 @@ pub fn sin_cos_near(theta: f64, base: (f64, f64, f64)) -> (f64, f64) {
     if d.abs() > 0.5 {
         return theta.sin_cos();
     }
+    // Taylor coefficients as constants: Horner by multiplication alone (no division in
+    // the hot path).
+    const S: [f64; 5] = [
+        -1.0 / 6.0,
+        1.0 / 120.0,
+        -1.0 / 5040.0,
+        1.0 / 362_880.0,
+        -1.0 / 39_916_800.0,
+    ];
+    const C: [f64; 6] = [
+        -1.0 / 2.0,
+        1.0 / 24.0,
+        -1.0 / 720.0,
+        1.0 / 40_320.0,
+        -1.0 / 3_628_800.0,
+        1.0 / 479_001_600.0,
+    ];
     let d2 = d * d;
-    let sd = d
-        * (1.0
-            - d2 / 6.0
-                * (1.0 - d2 / 20.0 * (1.0 - d2 / 42.0 * (1.0 - d2 / 72.0 * (1.0 - d2 / 110.0)))));
-    let cd = 1.0
-        - d2 / 2.0
-            * (1.0
-                - d2 / 12.0
-                    * (1.0
-                        - d2 / 30.0 * (1.0 - d2 / 56.0 * (1.0 - d2 / 90.0 * (1.0 - d2 / 132.0)))));
+    let sd = d * (1.0 + d2 * (S[0] + d2 * (S[1] + d2 * (S[2] + d2 * (S[3] + d2 * S[4])))));
+    let cd = 1.0 + d2 * (C[0] + d2 * (C[1] + d2 * (C[2] + d2 * (C[3] + d2 * (C[4] + d2 * C[5])))));
     (sb * cd + cb * sd, cb * cd - sb * sd)
 }
 

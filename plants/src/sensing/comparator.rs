@@ -507,11 +507,12 @@ impl ComparatorBank {
     fn certain_over(&self, cur: &Cursor, a: u64, b: u64) -> Option<bool> {
         let c = &cur.c;
         let (ta, tb) = (a as f64 * TICK_S - c.t0, b as f64 * TICK_S - c.t0);
-        let (pa, na) = ((-ta / self.tau_p).exp(), (-ta / self.tau_n).exp());
+        let (pa, na) = self.decay_at(cur, a);
         let w = if a == b {
             [pa, na, pa, na]
         } else {
-            [pa, na, (-tb / self.tau_p).exp(), (-tb / self.tau_n).exp()]
+            let (pb, nb) = self.decay_at(cur, b);
+            [pa, na, pb, nb]
         };
         // The ringing only decays after the cursor's tick.
         let env = (cur.z.0 * cur.z.0 + cur.z.1 * cur.z.1).sqrt();
@@ -522,6 +523,19 @@ impl ComparatorBank {
             Some(false)
         } else {
             None
+        }
+    }
+
+    /// e^{−τ/τp}, e^{−τ/τn} at tick `k` of `cur`'s step: the cursor's own factors where it
+    /// has them (its next tick, its step's last), else computed.
+    fn decay_at(&self, cur: &Cursor, k: u64) -> (f64, f64) {
+        if k == cur.k_end {
+            (cur.w_end[0], cur.w_end[1])
+        } else if k == cur.k && !cur.stale {
+            (cur.dp, cur.dn)
+        } else {
+            let t = k as f64 * TICK_S - cur.c.t0;
+            ((-t / self.tau_p).exp(), (-t / self.tau_n).exp())
         }
     }
 
@@ -587,7 +601,12 @@ impl ComparatorBank {
             let Some(mut cur) = self.pending[ch].take() else {
                 continue;
             };
-            cur.k_end = cur.k_end.min(k_stop);
+            if k_stop < cur.k_end {
+                // Cut short: the end's factors belong to the new end.
+                cur.k_end = k_stop;
+                let t = k_stop as f64 * TICK_S - cur.c.t0;
+                cur.w_end = [(-t / self.tau_p).exp(), (-t / self.tau_n).exp()];
+            }
             if cur.k > cur.k_end {
                 continue;
             }
