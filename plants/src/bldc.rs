@@ -10,7 +10,7 @@
 //! diode's current reaching zero (the current is then set to exactly zero and the phase
 //! floats), and an open terminal reaching a diode clamp (the diode starts conducting).
 
-use crate::circuit::{Circuit, Conduction, Linearised, Solution};
+use crate::circuit::{Circuit, Conduction, Linearised, Powers, Solution};
 use crate::emf;
 use crate::params::{BackEmfShape, PlantParams};
 use crate::sensing::{ComparatorBank, CurrentSense};
@@ -316,10 +316,27 @@ impl BldcPlant {
         let f = emf::shape_with(&self.shape, x[THETA], emf::sin_cos_near(x[THETA], base));
         let k = self.lambda * self.pp * x[OMEGA];
         let e = [k * f.u, k * f.v, k * f.w];
-        let i = [x[0], x[1], x[2]];
-        let (di, p) = self.lin.eval(&i, &e);
+        let (di, p) = self.lin.eval(&[x[0], x[1], x[2]], &e);
+        self.assemble(x, &f, di, &p)
+    }
+
+    /// The derivative and the network's solution at one state (a step's end, where both
+    /// are needed): the solution's di/dt and powers make the derivative, so the back-EMF
+    /// and the network are evaluated once.
+    fn deriv_and_solution(&self, x: &State, base: (f64, f64, f64)) -> (State, Solution) {
+        let f = emf::shape_with(&self.shape, x[THETA], emf::sin_cos_near(x[THETA], base));
+        let k = self.lambda * self.pp * x[OMEGA];
+        let s = self
+            .circuit
+            .solve(&self.modes, &Self::currents(x), &f.map(|v| k * v));
+        (self.assemble(x, &f, s.di.to_array(), &s.powers), s)
+    }
+
+    /// The state derivative from the network's di/dt and powers `p` at state `x`, whose
+    /// back-EMF shape values are `f`: the mechanics and the energy integrals' rates.
+    fn assemble(&self, x: &State, f: &Abc<f64>, di: [f64; 3], p: &Powers) -> State {
         let wm = x[OMEGA];
-        let te = self.pp * self.lambda * (i[0] * f.u + i[1] * f.v + i[2] * f.w);
+        let te = self.pp * self.lambda * (x[0] * f.u + x[1] * f.v + x[2] * f.w);
         let drag = self.friction * wm + self.coulomb * smooth_sign(wm / self.coulomb_speed);
         let net = te - drag - self.load_nm;
         // A locked rotor is held by a dynamometer, which absorbs the net torque.
@@ -404,9 +421,32 @@ impl BldcPlant {
                 None => return 0.0,
             }
         }
-        for _ in 0..48 {
-            let m = 0.5 * (a + b);
-            if g(m) > 0.0 { a = m } else { b = m }
+        // Regula falsi with the Illinois weighting: superlinear on the smooth cubic, and
+        // the bracket keeps the answer on the side where the current has crossed.
+        let (mut ga, mut gb) = (g(a), g(b));
+        let mut side = 0i8;
+        for _ in 0..60 {
+            if b - a < 1e-14 || gb >= 0.0 {
+                break;
+            }
+            let m = (a - ga * (b - a) / (gb - ga)).clamp(a, b);
+            let gm = g(m);
+            if gm > 0.0 {
+                (a, ga) = (m, gm);
+                if side == 1 {
+                    gb *= 0.5;
+                }
+                side = 1;
+            } else {
+                (b, gb) = (m, gm);
+                if gm == 0.0 {
+                    break;
+                }
+                if side == -1 {
+                    ga *= 0.5;
+                }
+                side = -1;
+            }
         }
         b
     }
@@ -883,8 +923,7 @@ impl BldcPlant {
             };
             let f0 = k1;
             let mut x1 = self.rk4_from(&x0, t1 - t0, b0, k1);
-            let mut f1 = self.deriv(&x1, b0);
-            let mut s1 = self.solve_near(&x1, b0);
+            let (mut f1, mut s1) = self.deriv_and_solution(&x1, b0);
             let mut event = None;
             let step = Dense {
                 x0,
@@ -897,9 +936,8 @@ impl BldcPlant {
                 // The step to the event is RK4's (not interpolated), so the energy
                 // integrals stay consistent with the currents.
                 x1 = at.unwrap_or_else(|| self.rk4(&x0, h, b0));
-                f1 = self.deriv(&x1, b0);
+                (f1, s1) = self.deriv_and_solution(&x1, b0);
                 t1 = t0 + h;
-                s1 = self.solve_near(&x1, b0);
                 event = Some(p);
             }
             self.cmp
