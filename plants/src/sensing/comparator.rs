@@ -15,6 +15,7 @@
 
 use super::foh::Foh;
 use super::noise;
+use super::tick_powers::TickPowers;
 use crate::params::ComparatorParams;
 use drive_core::{Abc, Phase, TICK_S, Ticks};
 
@@ -94,19 +95,32 @@ struct Channel {
     x: Phase,
     /// Start of the step [s].
     t0: f64,
+    /// The step's first tick and e^{−τ/τp}, e^{−τ/τn} there: the decays at a later tick
+    /// follow by table (see [`ComparatorBank::decay`]).
+    k_s: u64,
+    base: (f64, f64),
     /// l = α − offset [V], β [V/s], A and B [V] (the filter transients at τ = 0).
     l: f64,
     beta: f64,
     a: f64,
     b: f64,
+    /// A/τp and B/τn [V/s]: the transients' rates at τ = 0 (their derivative's weights).
+    ap: f64,
+    bn: f64,
     /// The value of A·e^{−τ/τp} − B·e^{−τ/τn} at its stationary point, once computed: it
     /// depends only on the step, not on the interval being bounded.
     stationary: std::cell::Cell<Option<f64>>,
 }
 
 impl Channel {
+    /// The channel over a step from `t0` (its first tick and the decays there are set when
+    /// a scan needs them).
     fn new(x: Phase, t0: f64, fx: &Foh, fn_: &Foh, offset: f64) -> Self {
         Channel {
+            k_s: 0,
+            base: (1.0, 1.0),
+            ap: fx.c / fx.tau,
+            bn: fn_.c / fn_.tau,
             x,
             t0,
             l: fx.a - fn_.a - fx.b * fx.tau + fn_.b * fn_.tau - offset,
@@ -161,15 +175,21 @@ pub struct ComparatorBank {
     decay_cache: (f64, f64, f64),
     /// Decay factors over one noise interval less one tick.
     q_seg_m1: (f64, f64),
+    /// Powers of the per-tick filter decays and ringing rotation.
+    pow_p: TickPowers,
+    pow_n: TickPowers,
+    pow_ring: TickPowers,
     y: Abc<f64>,
     y_n: f64,
     out: Abc<bool>,
     hist: [History; 3],
     /// Scans of the present step not yet walked, for channels nobody watches.
     pending: [Option<Cursor>; 3],
-    /// Ringing phasor (re, im) referred to `ring_t`: ring(t) = Im(Z·e^{(−1/τr + jω)(t − ring_t)}).
+    /// Ringing phasor (re, im) referred to `ring_t`, the tick `ring_k`:
+    /// ring(t) = Im(Z·e^{(−1/τr + jω)(t − ring_t)}).
     ring: (f64, f64),
     ring_t: f64,
+    ring_k: u64,
     ring_mag: f64,
     toggles: u64,
     /// Ticks evaluated one by one (work counter).
@@ -207,6 +227,12 @@ impl ComparatorBank {
                 (d * cs, d * sn)
             },
             decay_cache: (f64::NAN, 0.0, 0.0),
+            pow_p: TickPowers::new(-1.0 / p.phase_filter_tau_s, 0.0),
+            pow_n: TickPowers::new(-1.0 / p.neutral_filter_tau_s, 0.0),
+            pow_ring: TickPowers::new(
+                -1.0 / p.ring_decay_s,
+                std::f64::consts::TAU * p.ring_frequency_hz,
+            ),
             q_seg_m1: {
                 let n = (p.noise_interval().0 - 1) as f64 * TICK_S;
                 (
@@ -238,6 +264,7 @@ impl ComparatorBank {
             pending: [None, None, None],
             ring: (0.0, 0.0),
             ring_t: 0.0,
+            ring_k: 0,
             ring_mag: 0.0,
             toggles: 0,
             ticks_scanned: 0,
@@ -256,10 +283,46 @@ impl ComparatorBank {
         if self.ring_gain == 0.0 || dv == 0.0 {
             return;
         }
-        let (re, im) = self.ring_at_phasor(t);
-        self.ring = (re + self.ring_gain * dv, im);
+        // Referred to the tick at or after t (the engine's instants are ticks already).
+        let kf = t / TICK_S;
+        let k = if (kf - kf.round()).abs() < 1e-6 {
+            kf.round()
+        } else {
+            kf.ceil()
+        } as u64;
+        let lead = k as f64 * TICK_S - t;
+        let (re, im) = self.ring_at(k);
+        let (dr, di) = if lead > 0.0 {
+            let d = (-lead / self.ring_decay).exp();
+            let (sn, cs) = (self.ring_w * lead).sin_cos();
+            (d * cs, d * sn)
+        } else {
+            (1.0, 0.0)
+        };
+        let g = self.ring_gain * dv;
+        self.ring = (re + g * dr, im + g * di);
         self.ring_mag = self.ring.0.hypot(self.ring.1);
-        self.ring_t = t;
+        self.ring_k = k;
+        self.ring_t = k as f64 * TICK_S;
+    }
+
+    /// The ringing phasor at tick `k`: by table from the excitation on.
+    fn ring_at(&self, k: u64) -> (f64, f64) {
+        if self.ring == (0.0, 0.0) {
+            return (0.0, 0.0);
+        }
+        if k < self.ring_k {
+            return self.ring_at_phasor(k as f64 * TICK_S);
+        }
+        let (wr, wi) = self.pow_ring.at(k - self.ring_k);
+        let z = (
+            self.ring.0 * wr - self.ring.1 * wi,
+            self.ring.0 * wi + self.ring.1 * wr,
+        );
+        if z.0.abs() + z.1.abs() < 1e-9 {
+            return (0.0, 0.0);
+        }
+        z
     }
 
     fn ring_at_phasor(&self, t: f64) -> (f64, f64) {
@@ -276,6 +339,12 @@ impl ComparatorBank {
             d * (self.ring.0 * c - self.ring.1 * s),
             d * (self.ring.0 * s + self.ring.1 * c),
         )
+    }
+
+    /// e^{−τ/τp}, e^{−τ/τn} at tick `k` (not before the step's first) of `c`'s step.
+    fn decay(&self, c: &Channel, k: u64) -> (f64, f64) {
+        let n = k - c.k_s;
+        (c.base.0 * self.pow_p.real(n), c.base.1 * self.pow_n.real(n))
     }
 
     fn ring_envelope(&self, t: f64) -> f64 {
@@ -321,36 +390,36 @@ impl ComparatorBank {
         }
         let (_, eh_p, eh_n) = self.decay_cache;
         let w = [1.0, 1.0, eh_p, eh_n];
-        // Decay factors at the first and last tick of the step, shared by the channels.
-        let on_ticks = ((t0 / TICK_S).round() - t0 / TICK_S).abs() < 1e-6
-            && ((t1 / TICK_S).round() - t1 / TICK_S).abs() < 1e-6;
-        let mut ticks: Option<[f64; 4]> = on_ticks.then_some([self.q_p, self.q_n, eh_p, eh_n]);
+        // Decay factors at the step's first tick, shared by the channels.
+        let mut first: Option<(f64, f64)> = None;
         // The ringing phasor at the first tick, shared by the channels too.
         let mut z0: Option<(f64, f64)> = None;
         for x in Phase::ALL {
             let fx = Foh::new(self.y.get(x), v0.get(x), v1.get(x), h, self.tau_p);
-            let c = Channel::new(x, t0, &fx, &fn_, self.offset.get(x));
+            let mut c = Channel::new(x, t0, &fx, &fn_, self.offset.get(x));
             if k_start <= k_end && self.may_toggle(&c, 0.0, h, w, env0, -self.noise_a, self.noise_a)
             {
-                let d = *ticks.get_or_insert_with(|| {
-                    let (ta, tb) = (k_start as f64 * TICK_S - t0, k_end as f64 * TICK_S - t0);
-                    [
-                        (-ta / self.tau_p).exp(),
-                        (-ta / self.tau_n).exp(),
-                        (-tb / self.tau_p).exp(),
-                        (-tb / self.tau_n).exp(),
-                    ]
+                c.k_s = k_start;
+                c.base = *first.get_or_insert_with(|| {
+                    let ta = k_start as f64 * TICK_S - t0;
+                    if (ta - TICK_S).abs() < 1e-6 * TICK_S {
+                        (self.q_p, self.q_n)
+                    } else {
+                        ((-ta / self.tau_p).exp(), (-ta / self.tau_n).exp())
+                    }
                 });
-                let z = *z0.get_or_insert_with(|| self.ring_at_phasor(k_start as f64 * TICK_S));
+                let end = self.decay(&c, k_end);
+                let z = *z0.get_or_insert_with(|| self.ring_at(k_start));
+                let (dp, dn) = c.base;
                 let mut cur = Cursor {
                     c,
                     k: k_start,
                     k_end,
-                    dp: d[0],
-                    dn: d[1],
+                    dp,
+                    dn,
                     z,
                     stale: false,
-                    w_end: [d[2], d[3]],
+                    w_end: [end.0, end.1],
                 };
                 if watched.get(x) {
                     self.scan_to(&mut cur, k_end);
@@ -397,9 +466,8 @@ impl ComparatorBank {
     /// possible, and leaves `cur` at the next tick.
     fn scan_to(&mut self, cur: &mut Cursor, k_stop: u64) {
         if cur.stale {
-            let tau = cur.k as f64 * TICK_S - cur.c.t0;
-            (cur.dp, cur.dn) = ((-tau / self.tau_p).exp(), (-tau / self.tau_n).exp());
-            cur.z = self.ring_at_phasor(cur.k as f64 * TICK_S);
+            (cur.dp, cur.dn) = self.decay(&cur.c, cur.k);
+            cur.z = self.ring_at(cur.k);
             cur.stale = false;
         }
         let c = &cur.c;
@@ -495,7 +563,7 @@ impl ComparatorBank {
             } else if k <= k_end {
                 dp *= self.q_p.powi(span as i32 + 1);
                 dn *= self.q_n.powi(span as i32 + 1);
-                z = self.ring_at_phasor(k as f64 * TICK_S);
+                z = self.ring_at(k);
             }
         }
         (cur.k, cur.dp, cur.dn, cur.z) = (k, dp, dn, z);
@@ -534,8 +602,7 @@ impl ComparatorBank {
         } else if k == cur.k && !cur.stale {
             (cur.dp, cur.dn)
         } else {
-            let t = k as f64 * TICK_S - cur.c.t0;
-            ((-t / self.tau_p).exp(), (-t / self.tau_n).exp())
+            self.decay(&cur.c, k)
         }
     }
 
@@ -604,8 +671,8 @@ impl ComparatorBank {
             if k_stop < cur.k_end {
                 // Cut short: the end's factors belong to the new end.
                 cur.k_end = k_stop;
-                let t = k_stop as f64 * TICK_S - cur.c.t0;
-                cur.w_end = [(-t / self.tau_p).exp(), (-t / self.tau_n).exp()];
+                let end = self.decay(&cur.c, k_stop);
+                cur.w_end = [end.0, end.1];
             }
             if cur.k > cur.k_end {
                 continue;
@@ -678,7 +745,7 @@ impl ComparatorBank {
     /// the interval whose decay factors are `w` (signed), if its one stationary point is
     /// inside: that is where g′ changes sign, so no logarithm is needed to rule it out.
     fn stationary_within(&self, c: &Channel, w: [f64; 4]) -> Option<f64> {
-        let (ap, bn) = (c.a / self.tau_p, c.b / self.tau_n);
+        let (ap, bn) = (c.ap, c.bn);
         let (da, db) = (bn * w[1] - ap * w[0], bn * w[3] - ap * w[2]);
         if da * db >= 0.0 {
             return None;
