@@ -35,6 +35,29 @@ impl Ticks {
         (t.is_finite() && (0.0..1.8e19).contains(&t)).then_some(Ticks(t as u64))
     }
 
+    /// The last tick at or before the instant `seconds` (≥ 0), an instant less than a
+    /// millionth of a tick short of a tick counting as that tick: plant times are sums of
+    /// tick instants and step lengths, off by rounding. By cast, not `floor`, which is a
+    /// library call on baseline x86-64; the plant converts several times per step.
+    pub fn at_or_before(seconds: f64) -> Ticks {
+        Ticks((seconds / TICK_S + 1e-6) as u64)
+    }
+
+    /// The first tick at or after the instant `seconds` (≥ 0), and whether `seconds` is that
+    /// tick (within a millionth of a tick either way).
+    pub fn at_or_after(seconds: f64) -> (Ticks, bool) {
+        let k = seconds / TICK_S;
+        let near = (k + 0.5) as u64; // the nearest tick, for k ≥ 0
+        if (k - near as f64).abs() < 1e-6 {
+            return (Ticks(near), true);
+        }
+        let below = k as u64;
+        (
+            Ticks(if (below as f64) < k { below + 1 } else { below }),
+            false,
+        )
+    }
+
     /// The first instant `>= self` that is a whole multiple of `period` (a clock edge).
     /// A zero period means "every tick".
     pub fn next_edge(self, period: Ticks) -> Ticks {
@@ -90,6 +113,26 @@ pub mod clocks {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn instants_to_ticks_match_floor_and_ceil_with_the_rounding_allowance() {
+        for k in [0u64, 1, 2, 31, 1000, 150_000_000, 4_000_000_000] {
+            let t = k as f64 * TICK_S;
+            // An instant on a tick, or an ulp off it, is that tick (up to ≈ 100 s, where
+            // an ulp reaches the allowance of a millionth of a tick).
+            for x in [t, t.next_up(), t.next_down()] {
+                assert_eq!(Ticks::at_or_before(x), Ticks(k), "{x}");
+                assert_eq!(Ticks::at_or_after(x), (Ticks(k), true), "{x}");
+            }
+            // A third of a tick later: floor and ceil proper.
+            let x = t + TICK_S / 3.0;
+            assert_eq!(Ticks::at_or_before(x), Ticks(k));
+            assert_eq!(Ticks::at_or_after(x), (Ticks(k + 1), false));
+            let x = t + 0.999 * TICK_S;
+            assert_eq!(Ticks::at_or_before(x), Ticks(k));
+            assert_eq!(Ticks::at_or_after(x), (Ticks(k + 1), false));
+        }
+    }
 
     #[test]
     fn chip_clock_periods_match_spec() {

@@ -14,7 +14,7 @@ use crate::circuit::{Circuit, Conduction, Linearised, Powers, Solution};
 use crate::emf;
 use crate::params::{BackEmfShape, PlantParams};
 use crate::sensing::{ComparatorBank, CurrentSense};
-use drive_core::{Abc, Gates, ParamError, Phase, Plant, PlantStop, Sensed, TICK_S, Ticks, Watch};
+use drive_core::{Abc, Gates, ParamError, Phase, Plant, PlantStop, Sensed, Ticks, Watch};
 use nalgebra::SVector;
 use std::f64::consts::TAU;
 
@@ -639,17 +639,6 @@ impl BldcPlant {
         };
     }
 
-    /// The first tick at or after `t`, and whether `t` is (within rounding) that tick.
-    fn ceil_tick(t: f64) -> (Ticks, bool) {
-        let k = t / TICK_S;
-        let r = k.round();
-        if (k - r).abs() < 1e-6 {
-            (Ticks(r as u64), true)
-        } else {
-            (Ticks(k.ceil() as u64), false)
-        }
-    }
-
     /// The clock edge (not before `now`) at which the first watched change not yet reported
     /// must be sampled.
     fn pending_sample(&self, watch: Watch, now: Ticks) -> Option<Ticks> {
@@ -806,7 +795,7 @@ impl BldcPlant {
     /// Serves a stop from the step already integrated ahead, or finishes that step.
     fn serve_lookahead(&mut self, t_end: f64, watch: Watch) -> Option<PlantStop> {
         let t1 = self.lookahead.as_ref()?.t1;
-        let (now, _) = Self::ceil_tick(self.t);
+        let (now, _) = Ticks::at_or_after(self.t);
         if let Some(p) = self.pending_sample(watch, now) {
             let ps = p.seconds();
             if ps < t1 - 1e-15 && ps <= t_end + 1e-15 {
@@ -829,7 +818,7 @@ impl BldcPlant {
     /// Ends any lookahead at the present time, before the dynamics change.
     fn settle(&mut self) {
         if self.lookahead.is_some() {
-            let (now, _) = Self::ceil_tick(self.t);
+            let (now, _) = Ticks::at_or_after(self.t);
             self.cmp.truncate_at(now);
             self.cur.truncate_at(self.t);
             self.x = self.state();
@@ -870,7 +859,7 @@ impl Plant for BldcPlant {
         // returned, and from now on for the channels watched now.
         self.cmp.watch(watch.channels);
         let stop = self.step_to(until, watch);
-        self.cmp.catch_up(Self::ceil_tick(self.t).0);
+        self.cmp.catch_up(Ticks::at_or_after(self.t).0);
         stop
     }
 
@@ -891,7 +880,7 @@ impl BldcPlant {
                 return stop;
             }
             let t0 = self.t;
-            let (now, on_tick) = Self::ceil_tick(t0);
+            let (now, on_tick) = Ticks::at_or_after(t0);
             let unreported = self.unreported(watch);
             let pending = unreported.map(|tv| Self::sample_edge(tv, watch, now));
             if on_tick && pending == Some(now) {
@@ -907,7 +896,7 @@ impl BldcPlant {
             let mut t1 = watch.horizon.max(until).seconds().min(t0 + self.h_max);
             // A step of the longest length that lands on a tick takes that tick's own time,
             // so it ends where a step cut there by the engine would (bit for bit).
-            if let (k, true) = Self::ceil_tick(t1) {
+            if let (k, true) = Ticks::at_or_after(t1) {
                 t1 = k.seconds();
             }
             if let Some(e) = pending {
@@ -940,8 +929,7 @@ impl BldcPlant {
                 t1 = t0 + h;
                 event = Some(p);
             }
-            self.cmp
-                .forget_history(Ticks((t0 / TICK_S + 1e-6).floor() as u64), unreported);
+            self.cmp.forget_history(Ticks::at_or_before(t0), unreported);
             self.cmp.update(
                 t0,
                 t1,

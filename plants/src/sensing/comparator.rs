@@ -284,12 +284,7 @@ impl ComparatorBank {
             return;
         }
         // Referred to the tick at or after t (the engine's instants are ticks already).
-        let kf = t / TICK_S;
-        let k = if (kf - kf.round()).abs() < 1e-6 {
-            kf.round()
-        } else {
-            kf.ceil()
-        } as u64;
+        let k = Ticks::at_or_after(t).0.0;
         let lead = k as f64 * TICK_S - t;
         let (re, im) = self.ring_at(k);
         let (dr, di) = if lead > 0.0 {
@@ -382,8 +377,8 @@ impl ComparatorBank {
             env0 = 0.0;
         }
         let fn_ = Foh::new(self.y_n, vn0, vn1, h, self.tau_n);
-        let k_start = (t0 / TICK_S + 1e-6).floor() as u64 + 1;
-        let k_end = (t1 / TICK_S + 1e-6).floor() as u64;
+        let k_start = Ticks::at_or_before(t0).0 + 1;
+        let k_end = Ticks::at_or_before(t1).0;
         // Steps repeat their lengths (PWM half-periods, the solver's longest step): cache.
         if self.decay_cache.0 != h {
             self.decay_cache = (h, (-h / self.tau_p).exp(), (-h / self.tau_n).exp());

@@ -125,8 +125,9 @@ impl CurrentSense {
     }
 
     fn quantise(&self, v: f64) -> u16 {
-        ((v / self.full_scale * self.codes).floor().max(0.0) as u64).min(self.max_code as u64)
-            as u16
+        // The cast truncates, which is the floor for the non-negative values that matter
+        // (negative ones saturate to code 0 either way), without a library call.
+        ((v / self.full_scale * self.codes) as u64).min(self.max_code as u64) as u16
     }
 
     /// The filter over [0, h] with the shunt current the cubic Hermite interpolant of
@@ -233,7 +234,7 @@ impl CurrentSense {
             return;
         }
         let pieces = self.pieces(h, start, end);
-        let k_end = (t1 / TICK_S + 1e-6).floor() as u64;
+        let k_end = Ticks::at_or_before(t1).0;
         while self.next_sample <= k_end {
             let code = self.quantise(pieces.at(self.next_sample as f64 * TICK_S - t0));
             if self.results.len() == self.results.capacity() {
@@ -251,7 +252,7 @@ impl CurrentSense {
     pub fn truncate_at(&mut self, t: f64) {
         let (pieces, t0) = self.last;
         self.y = pieces.at(t - t0);
-        let k = (t / TICK_S + 1e-6).floor() as u64;
+        let k = Ticks::at_or_before(t).0;
         while self.results.back().is_some_and(|r| r.0 - self.conv > k) {
             self.results.pop_back();
         }
