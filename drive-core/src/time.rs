@@ -10,6 +10,9 @@ use std::ops::{Add, AddAssign, Sub};
 /// Length of one master tick in seconds (50 MHz master clock).
 pub const TICK_S: f64 = 20e-9;
 
+/// Ticks per second, to convert instants by multiplication.
+const PER_S: f64 = 1.0 / TICK_S;
+
 /// An instant or a duration counted in master ticks (20 ns).
 #[derive(
     Copy, Clone, Debug, Default, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize,
@@ -40,13 +43,13 @@ impl Ticks {
     /// tick instants and step lengths, off by rounding. By cast, not `floor`, which is a
     /// library call on baseline x86-64; the plant converts several times per step.
     pub fn at_or_before(seconds: f64) -> Ticks {
-        Ticks((seconds / TICK_S + 1e-6) as u64)
+        Ticks((seconds * PER_S + 1e-6) as u64)
     }
 
     /// The first tick at or after the instant `seconds` (≥ 0), and whether `seconds` is that
     /// tick (within a millionth of a tick either way).
     pub fn at_or_after(seconds: f64) -> (Ticks, bool) {
-        let k = seconds / TICK_S;
+        let k = seconds * PER_S;
         let near = (k + 0.5) as u64; // the nearest tick, for k ≥ 0
         if (k - near as f64).abs() < 1e-6 {
             return (Ticks(near), true);

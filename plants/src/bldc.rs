@@ -142,9 +142,11 @@ pub struct BldcPlant {
     pp: f64,
     lambda: f64,
     inertia: f64,
+    /// 1/J and 1/ω_c: the derivative multiplies rather than divides.
+    inv_inertia: f64,
+    inv_coulomb_speed: f64,
     friction: f64,
     coulomb: f64,
-    coulomb_speed: f64,
     inductance: f64,
     h_max: f64,
     x: State,
@@ -199,9 +201,10 @@ impl BldcPlant {
             pp: m.pole_pairs(),
             lambda: m.flux_linkage_wb,
             inertia: m.inertia_kgm2,
+            inv_inertia: 1.0 / m.inertia_kgm2,
+            inv_coulomb_speed: 1.0 / m.coulomb_speed_rad_s,
             friction: m.viscous_friction_nms,
             coulomb: m.coulomb_friction_nm,
-            coulomb_speed: m.coulomb_speed_rad_s,
             inductance: m.phase_inductance_h(),
             h_max: params.solver.max_step_s,
             x,
@@ -337,13 +340,13 @@ impl BldcPlant {
     fn assemble(&self, x: &State, f: &Abc<f64>, di: [f64; 3], p: &Powers) -> State {
         let wm = x[OMEGA];
         let te = self.pp * self.lambda * (x[0] * f.u + x[1] * f.v + x[2] * f.w);
-        let drag = self.friction * wm + self.coulomb * smooth_sign(wm / self.coulomb_speed);
+        let drag = self.friction * wm + self.coulomb * smooth_sign(wm * self.inv_coulomb_speed);
         let net = te - drag - self.load_nm;
         // A locked rotor is held by a dynamometer, which absorbs the net torque.
         let (dw, p_dyno) = if self.speed_lock {
             (0.0, net * wm)
         } else {
-            (net / self.inertia, 0.0)
+            (net * self.inv_inertia, 0.0)
         };
         State::from([
             di[0],

@@ -115,12 +115,13 @@ struct Channel {
 impl Channel {
     /// The channel over a step from `t0` (its first tick and the decays there are set when
     /// a scan needs them).
-    fn new(x: Phase, t0: f64, fx: &Foh, fn_: &Foh, offset: f64) -> Self {
+    /// `inv_tau` holds 1/τp and 1/τn, the filters' (`fx`, `fn_`) inverse time constants.
+    fn new(x: Phase, t0: f64, (fx, fn_): (&Foh, &Foh), inv_tau: (f64, f64), offset: f64) -> Self {
         Channel {
             k_s: 0,
             base: (1.0, 1.0),
-            ap: fx.c / fx.tau,
-            bn: fn_.c / fn_.tau,
+            ap: fx.c * inv_tau.0,
+            bn: fn_.c * inv_tau.1,
             x,
             t0,
             l: fx.a - fn_.a - fx.b * fx.tau + fn_.b * fn_.tau - offset,
@@ -154,6 +155,8 @@ struct Cursor {
 pub struct ComparatorBank {
     tau_p: f64,
     tau_n: f64,
+    /// 1/τp, 1/τn [1/s].
+    inv_tau: (f64, f64),
     offset: Abc<f64>,
     half_h: f64,
     delay: u64,
@@ -210,6 +213,7 @@ impl ComparatorBank {
         ComparatorBank {
             tau_p: p.phase_filter_tau_s,
             tau_n: p.neutral_filter_tau_s,
+            inv_tau: (1.0 / p.phase_filter_tau_s, 1.0 / p.neutral_filter_tau_s),
             offset,
             half_h: p.hysteresis_v / 2.0,
             delay: p.delay().0,
@@ -376,7 +380,9 @@ impl ComparatorBank {
             self.ring_mag = 0.0;
             env0 = 0.0;
         }
-        let fn_ = Foh::new(self.y_n, vn0, vn1, h, self.tau_n);
+        // One division per step: the four filter inputs' slopes share 1/h.
+        let inv_h = 1.0 / h;
+        let fn_ = Foh::ramp(self.y_n, vn0, (vn1 - vn0) * inv_h, self.tau_n);
         let k_start = Ticks::at_or_before(t0).0 + 1;
         let k_end = Ticks::at_or_before(t1).0;
         // Steps repeat their lengths (PWM half-periods, the solver's longest step): cache.
@@ -390,8 +396,9 @@ impl ComparatorBank {
         // The ringing phasor at the first tick, shared by the channels too.
         let mut z0: Option<(f64, f64)> = None;
         for x in Phase::ALL {
-            let fx = Foh::new(self.y.get(x), v0.get(x), v1.get(x), h, self.tau_p);
-            let mut c = Channel::new(x, t0, &fx, &fn_, self.offset.get(x));
+            let (u0, u1) = (v0.get(x), v1.get(x));
+            let fx = Foh::ramp(self.y.get(x), u0, (u1 - u0) * inv_h, self.tau_p);
+            let mut c = Channel::new(x, t0, (&fx, &fn_), self.inv_tau, self.offset.get(x));
             if k_start <= k_end && self.may_toggle(&c, 0.0, h, w, env0, -self.noise_a, self.noise_a)
             {
                 c.k_s = k_start;

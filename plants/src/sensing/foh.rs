@@ -26,6 +26,16 @@ impl Foh {
         }
     }
 
+    /// The segment from filter state `y0` with input `u0 + slope·τ` [V, V/s].
+    pub fn ramp(y0: f64, u0: f64, slope: f64, tau: f64) -> Self {
+        Foh {
+            a: u0,
+            b: slope,
+            c: y0 - u0 + slope * tau,
+            tau,
+        }
+    }
+
     /// Filter output at τ seconds into the segment, given `decay` = e^{−τ/tau}.
     pub fn at_decayed(&self, t: f64, decay: f64) -> f64 {
         self.a + self.b * (t - self.tau) + self.c * decay
