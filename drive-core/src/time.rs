@@ -13,6 +13,13 @@ pub const TICK_S: f64 = 20e-9;
 /// Ticks per second, to convert instants by multiplication.
 const PER_S: f64 = 1.0 / TICK_S;
 
+/// How far (in ticks) an instant may miss a tick and still be that tick: a millionth of a
+/// tick, or a few ulps of the tick count where that is more (beyond ≈ 100 s of drive time
+/// an ulp of the instant exceeds a millionth of a tick).
+fn allowance(k: f64) -> f64 {
+    (k * 1e-15).max(1e-6)
+}
+
 /// An instant or a duration counted in master ticks (20 ns).
 #[derive(
     Copy, Clone, Debug, Default, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize,
@@ -38,20 +45,21 @@ impl Ticks {
         (t.is_finite() && (0.0..1.8e19).contains(&t)).then_some(Ticks(t as u64))
     }
 
-    /// The last tick at or before the instant `seconds` (≥ 0), an instant less than a
-    /// millionth of a tick short of a tick counting as that tick: plant times are sums of
-    /// tick instants and step lengths, off by rounding. By cast, not `floor`, which is a
-    /// library call on baseline x86-64; the plant converts several times per step.
+    /// The last tick at or before the instant `seconds` (≥ 0), an instant within rounding
+    /// short of a tick counting as that tick: plant times are sums of tick instants and step
+    /// lengths, off by rounding. By cast, not `floor`, which is a library call on baseline
+    /// x86-64; the plant converts several times per step.
     pub fn at_or_before(seconds: f64) -> Ticks {
-        Ticks((seconds * PER_S + 1e-6) as u64)
+        let k = seconds * PER_S;
+        Ticks((k + allowance(k)) as u64)
     }
 
     /// The first tick at or after the instant `seconds` (≥ 0), and whether `seconds` is that
-    /// tick (within a millionth of a tick either way).
+    /// tick (within rounding either way).
     pub fn at_or_after(seconds: f64) -> (Ticks, bool) {
         let k = seconds * PER_S;
         let near = (k + 0.5) as u64; // the nearest tick, for k ≥ 0
-        if (k - near as f64).abs() < 1e-6 {
+        if (k - near as f64).abs() < allowance(k) {
             return (Ticks(near), true);
         }
         let below = k as u64;
@@ -119,11 +127,21 @@ mod tests {
 
     #[test]
     fn instants_to_ticks_match_floor_and_ceil_with_the_rounding_allowance() {
-        for k in [0u64, 1, 2, 31, 1000, 150_000_000, 4_000_000_000] {
+        // Up to 10⁴ s of drive time (5·10¹¹ ticks), where an ulp of the instant is 10⁻⁴ tick.
+        for k in [
+            0u64,
+            1,
+            2,
+            31,
+            1000,
+            150_000_000,
+            4_000_000_000,
+            500_000_000_000,
+        ] {
             let t = k as f64 * TICK_S;
-            // An instant on a tick, or an ulp off it, is that tick (up to ≈ 100 s, where
-            // an ulp reaches the allowance of a millionth of a tick).
-            for x in [t, t.next_up(), t.next_down()] {
+            // An instant on a tick, or a few ulps off it, is that tick.
+            let (up, down) = (t.next_up().next_up(), t.next_down().next_down());
+            for x in [t, up, down] {
                 assert_eq!(Ticks::at_or_before(x), Ticks(k), "{x}");
                 assert_eq!(Ticks::at_or_after(x), (Ticks(k), true), "{x}");
             }
