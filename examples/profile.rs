@@ -10,6 +10,7 @@ use bldc_drive::DriveConfig;
 use bldc_drive::drive::{DriveEngine, build};
 use bldc_drive::drive_core::{StopReason, Ticks};
 use std::collections::HashMap;
+use std::io::Write;
 use std::time::Instant;
 
 fn main() {
@@ -46,29 +47,27 @@ fn main() {
         std::process::exit(1);
     }
     let (p1, c1) = (e.plant.stats(), e.plant.comparators());
-    println!(
-        "{:.0} rpm, {:.1}× real time over 2–3 s",
-        e.plant.observe().speed_rpm,
-        1.0 / dt
-    );
-    println!(
-        "per simulated second: {} RK4 steps, {} diode events, {} retries",
-        p1.steps - p0.steps,
-        p1.diode_events - p0.diode_events,
-        p1.retries - p0.retries
-    );
-    println!(
-        "comparators: {} scans, {} ticks walked, {} noise segments",
-        c1.scans - c0.scans,
-        c1.ticks_scanned - c0.ticks_scanned,
-        c1.segments - c0.segments
-    );
     let mut reasons: Vec<_> = reasons
         .into_iter()
         .map(|(r, n)| (format!("{r:?}"), n))
         .collect();
     reasons.sort();
-    println!("stops: {reasons:?}");
+    let report = format!(
+        "{:.0} rpm, {:.1}× real time over 2–3 s\n\
+         per simulated second: {} RK4 steps, {} diode events, {} retries\n\
+         comparators: {} scans, {} ticks walked, {} noise segments\n\
+         stops: {reasons:?}\n",
+        e.plant.observe().speed_rpm,
+        1.0 / dt,
+        p1.steps - p0.steps,
+        p1.diode_events - p0.diode_events,
+        p1.retries - p0.retries,
+        c1.scans - c0.scans,
+        c1.ticks_scanned - c0.ticks_scanned,
+        c1.segments - c0.segments
+    );
+    // A reader that stops early (`| head -1`) is not an error worth a panic.
+    let _ = std::io::stdout().write_all(report.as_bytes());
 }
 
 /// The timed part, 2–3 s, kept out of line so that a profiler can collect it alone.
