@@ -34,6 +34,22 @@ unsafe impl GlobalAlloc for Counting {
 #[global_allocator]
 static GLOBAL: Counting = Counting;
 
+/// Allocations made on this thread while `f` runs.
+fn allocations_during(f: impl FnOnce()) -> u64 {
+    COUNTING.with(|c| c.set(true));
+    let before = ALLOCS.load(Ordering::Relaxed);
+    f();
+    let after = ALLOCS.load(Ordering::Relaxed);
+    COUNTING.with(|c| c.set(false));
+    after - before
+}
+
+#[test]
+fn the_counter_sees_an_allocation() {
+    let n = allocations_during(|| drop(std::hint::black_box(Box::new(7u64))));
+    assert!(n >= 1, "the counting allocator is not counting");
+}
+
 #[test]
 fn step_loop_does_not_allocate() {
     let step = Ticks::from_seconds(1.0 / (3000.0 / 60.0 * 36.0)).unwrap();
@@ -41,12 +57,31 @@ fn step_loop_does_not_allocate() {
     e.plant.set_rotor(0.5, 3000.0, true);
     e.run_until(Ticks::from_seconds(1e-3).unwrap(), |_, _| {})
         .unwrap();
-    let before = ALLOCS.load(Ordering::Relaxed);
     let mut stops = 0u64;
-    e.run_until(Ticks::from_seconds(20e-3).unwrap(), |_, _| stops += 1)
-        .unwrap();
-    let after = ALLOCS.load(Ordering::Relaxed);
+    let n = allocations_during(|| {
+        e.run_until(Ticks::from_seconds(20e-3).unwrap(), |_, _| stops += 1)
+            .unwrap();
+    });
     assert!(stops > 1000, "the loop ran: {stops} stops");
     assert!(e.plant.comparator_toggles() > 100 && e.plant.stats().diode_events > 10);
-    assert_eq!(after - before, 0, "allocations inside the step loop");
+    assert_eq!(n, 0, "allocations inside the step loop");
+}
+
+#[test]
+fn closed_loop_drive_does_not_allocate_in_steady_state() {
+    // The default drive: the chip (twelve-step, digital filter) closing the speed loop at
+    // 3000 rpm, where it has settled by 2 s.
+    let mut e = bldc_drive::drive::build(&bldc_drive::DriveConfig::default()).unwrap();
+    let at = |s: f64| Ticks::from_seconds(s).unwrap();
+    e.run_until(at(2.0), |_, _| {}).unwrap();
+    let (t0, c0) = (e.plant.stats(), e.plant.comparator_toggles());
+    let n = allocations_during(|| e.run_until(at(2.2), |_, _| {}).unwrap());
+    let speed = e.plant.observe().speed_rpm;
+    assert!(
+        (speed - 3000.0).abs() < 100.0,
+        "closed loop at speed: {speed} rpm"
+    );
+    assert!(e.plant.stats().steps - t0.steps > 5000);
+    assert!(e.plant.comparator_toggles() > c0);
+    assert_eq!(n, 0, "allocations inside the step loop");
 }
