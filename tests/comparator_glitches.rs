@@ -91,7 +91,9 @@ fn full_duty_gives_one_clean_crossing() {
 fn the_same_seed_reproduces_every_glitch_bit_for_bit() {
     let a = run(1000, 42);
     let b = run(1000, 42);
+    assert!(a.0.len() >= 5, "glitches expected: {:?}", a.0);
     assert_eq!(a.0.len(), b.0.len());
+    assert_eq!(a.1, b.1, "PWM edges");
     for (x, y) in a.0.iter().zip(&b.0) {
         assert_eq!(x.0.to_bits(), y.0.to_bits());
         assert_eq!(x.1.to_bits(), y.1.to_bits());

@@ -86,6 +86,13 @@ fn assert_same(on: u64) {
     let (a, b) = (record(false, on, false), record(true, on, false));
     let toggles = a.windows(2).filter(|w| w[0].1.zc != w[1].1.zc).count();
     assert!(toggles >= 2, "the comparators must be active: {toggles}");
+    // The watched channel changes and stops the plant: sensing stops are compared too.
+    let w = a.windows(2).filter(|w| w[0].1.zc.w != w[1].1.zc.w).count();
+    let stops = a.iter().filter(|x| x.2.is_some()).count();
+    assert!(
+        w >= 1 && stops >= 1,
+        "w toggles {w} times, {stops} sensing stops"
+    );
     for (x, y) in a.iter().zip(&b) {
         assert_eq!(x, y, "stepping to each instant vs integrating ahead");
     }

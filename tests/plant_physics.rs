@@ -74,7 +74,8 @@ fn energy_balance_and_torque_consistency_with_pwm() {
             * (o.i.u * o.theta_e.sin()
                 + o.i.v * (o.theta_e - third).sin()
                 + o.i.w * (o.theta_e + third).sin());
-        let p_ei = emf.u * o.i.u + emf.v * o.i.v + emf.w * o.i.w;
+        // The plant's own torque and back-EMF (each checked against SPEC below).
+        let p_ei = o.emf.u * o.i.u + o.emf.v * o.i.v + o.emf.w * o.i.w;
         let scale = 1e-3 * (1.0 + o.omega_m.abs());
         assert!(
             (o.torque_nm - te).abs() < 1e-15,
@@ -83,9 +84,9 @@ fn energy_balance_and_torque_consistency_with_pwm() {
             te
         );
         assert!(
-            (te * o.omega_m - p_ei).abs() < 1e-12 * scale,
+            (o.torque_nm * o.omega_m - p_ei).abs() < 1e-12 * scale,
             "Te·ωm {} vs Σe·i {}",
-            te * o.omega_m,
+            o.torque_nm * o.omega_m,
             p_ei
         );
         for (a, b) in [(o.emf.u, emf.u), (o.emf.v, emf.v), (o.emf.w, emf.w)] {

@@ -15,6 +15,8 @@ const H: f64 = 0.5e-3;
 const SPEED_REF: f64 = 3500.0;
 const LOAD_AT_STEP: u32 = 2000; // 1.0 s
 const LOAD_NM: f64 = 1e-4;
+// 0.9 s: past the alignment (0.75 s), running closed loop, before the load step.
+const SAVE_AT_STEP: u32 = 1800;
 const STEPS: u32 = 3000; // 1.5 s
 
 /// (t, speed_rpm, i_u) every 10 ms of the native run.
@@ -56,7 +58,14 @@ fn fmi_crate_co_simulates_the_fmu_bit_identically_to_the_native_drive() {
         if k == LOAD_AT_STEP {
             Common::set_real(&mut inst, &[load], &[LOAD_NM]).unwrap();
         }
-        if k == 1000 {
+        if k == SAVE_AT_STEP {
+            let mut v = [0.0];
+            Common::get_real(&mut inst, &[speed], &mut v).unwrap();
+            assert!(
+                v[0] > 1000.0,
+                "running closed loop at the save point: {} rpm",
+                v[0]
+            );
             let s = inst.get_fmu_state().unwrap();
             saved = Some(inst.serialize_fmu_state(&s).unwrap());
         }
@@ -78,10 +87,10 @@ fn fmi_crate_co_simulates_the_fmu_bit_identically_to_the_native_drive() {
         "the drive reached {peak} rpm of {SPEED_REF}"
     );
 
-    // The state serialized at 0.5 s, restored through the importer, replays the rest.
+    // The state serialized at 0.9 s, restored through the importer, replays the rest.
     let s = inst.deserialize_fmu_state(&saved.unwrap()).unwrap();
     inst.set_fmu_state(&s).ok().expect("state restored");
-    for k in 1000..STEPS {
+    for k in SAVE_AT_STEP..STEPS {
         if k == LOAD_AT_STEP {
             Common::set_real(&mut inst, &[load], &[LOAD_NM]).unwrap();
         }

@@ -73,14 +73,21 @@ def main():
         sys.exit(f"{check.failures} check(s) failed")
 
 
+# Saved past the alignment (it ends at 0.75 s), while the drive commutates closed loop.
+SAVE_S, END_S = 0.9, 1.2
+
+
 def runs_the_example(md, unzipdir):
     ref = start(md, unzipdir)  # the default strategy.name is twelve-step-df
     ref.fmu.exitInitializationMode()
-    ref.step_to(0.6)
+    ref.step_to(SAVE_S)
     at_save = outputs(ref)
-    ref.step_to(1.0)
+    ref.step_to(END_S)
     builtin = outputs(ref)
     finish(ref)
+    # The alignment ends at 0.75 s: the state is saved while the drive commutates.
+    check(at_save[0] > 1000 and 1 <= at_save[-1] <= 12,
+          f"built-in commutates at the save point ({at_save[0]:.0f} rpm, state {at_save[-1]})")
     check(builtin[0] > 2000 and 1 <= builtin[-1] <= 12,
           f"built-in runs closed loop ({builtin[0]:.0f} rpm, state {builtin[-1]})")
 
@@ -90,19 +97,19 @@ def runs_the_example(md, unzipdir):
         d.fmu.setInteger([d.vr["strategy.name"]], [1])
         check(d.raw("fmi2ExitInitializationMode") == fmi2OK, f"plugin {path!r} loads")
         check(get_plugin(d) == (fmi2OK, path), f"fmi2GetString returns {path!r}")
-        d.step_to(0.6)
-        check(outputs(d) == at_save, f"plugin {path!r} matches the built-in at 0.6 s")
+        d.step_to(SAVE_S)
+        check(outputs(d) == at_save, f"plugin {path!r} matches the built-in at {SAVE_S} s")
         state = d.fmu.getFMUstate()
         data = d.fmu.serializeFMUstate(state)
-        d.step_to(1.0)
-        check(outputs(d) == builtin, f"plugin {path!r} matches the built-in at 1.0 s")
+        d.step_to(END_S)
+        check(outputs(d) == builtin, f"plugin {path!r} matches the built-in at {END_S} s")
 
         # Deserialized (the plugin loaded again) in another instance: continues bit-identically.
         e = Drive(md, unzipdir, name="restored")
         s2 = e.fmu.deSerializeFMUstate(data)
         e.fmu.setFMUstate(s2)
-        e.t = 0.6
-        e.step_to(1.0)
+        e.t = SAVE_S
+        e.step_to(END_S)
         check(outputs(e) == builtin, f"deserialized plugin state ({len(data)} bytes) replays")
         check(get_plugin(e) == (fmi2OK, path), "the state carries strategy.plugin")
         e.fmu.freeFMUstate(s2)

@@ -17,7 +17,8 @@ const SPEED_REF: f64 = 3500.0;
 const LOAD_AT_STEP: u32 = 2000; // 1.0 s
 const LOAD_NM: f64 = 1e-4;
 const STEPS: u32 = 3000; // 1.5 s
-const SAVE_AT_STEP: u32 = 1000; // 0.5 s, closed loop by then
+// 0.9 s: past the alignment (0.75 s), running closed loop, before the load step.
+const SAVE_AT_STEP: u32 = 1800;
 const OUTPUTS: [&str; 5] = ["speed_rpm", "i_u", "duty", "state", "speed_est_rpm"];
 
 fn text(s: &str) -> CString {
@@ -86,11 +87,16 @@ fn the_example_plugin_in_the_fmu_reproduces_the_builtin_strategy_bit_for_bit() {
     );
 
     let mut traced = run(&import, &mut inst, 0)[..(SAVE_AT_STEP / 20) as usize].to_vec();
-    // Taken at 0.5 s by rerunning to it; serialized so the replay starts from bytes.
+    // Taken at 0.9 s by rerunning to it; serialized so the replay starts from bytes.
     let mut again = start(&import, "again", Some(lib));
     for k in 0..SAVE_AT_STEP {
         again.do_step(f64::from(k) * H, H, true).unwrap();
     }
+    let at_save = sample(&import, &mut again);
+    assert!(
+        at_save[3] != 0.0 && at_save[0] > 1000.0,
+        "commutating closed loop at the save point: {at_save:?}"
+    );
     let state = again.get_fmu_state().unwrap();
     let bytes = again.serialize_fmu_state(&state).unwrap();
     traced.extend(run(&import, &mut again, SAVE_AT_STEP));

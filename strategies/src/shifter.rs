@@ -356,12 +356,16 @@ mod tests {
             t60,
             6,
         );
+        let mut commutations = 0;
         for &(t, ev, _) in &log {
             if ev == ShiftEvent::Commutation {
                 // (165 − 120)/60 = 3/4 of t60 after the crossing.
                 assert_eq!((t / CLK) % t60, 900, "at {t}");
+                commutations += 1;
             }
         }
+        // Six sectors run: a commutation after (nearly) every crossing.
+        assert!(commutations >= 5, "{commutations} commutations: {log:?}");
     }
 
     #[test]
