@@ -246,23 +246,49 @@ mod tests {
     }
 
     #[test]
-    fn the_config_rules_reject_values_outside_the_declared_range() {
-        // Guards the table against drifting from the rules: one step outside a declared
-        // bound must fail DriveConfig::validate (the rules are the authority).
+    fn the_declared_ranges_are_the_config_rules() {
+        // Guards the table against drifting from the rules (the rules are the authority):
+        // one step outside a declared bound must fail DriveConfig::validate; an Integer's
+        // bound itself, and a Real one step inside its bound, must pass. A step is a
+        // millionth for a Real, one for an Integer; a Real's rule may exclude the bound
+        // (FMI has no exclusive bounds: `> 0` is declared as min 0).
+        // Bounds that a rule ties to another field (at its default) are only checked outside.
+        let tied = [
+            ("strategy.lm_speed_max_rpm", "min"), // > strategy.lm_speed_min_rpm
+            ("control.start_current_a", "max"),   // <= control.current_limit_a
+            ("control.current_limit_a", "min"),   // >= control.start_current_a
+        ];
         for v in table() {
             let Role::Parameter { set, .. } = v.role else {
                 continue;
             };
-            let step = if v.kind == Kind::Real { 1e-6 } else { 1.0 };
-            for (bound, outside) in [(v.min, -1.0), (v.max, 1.0)] {
+            for (bound, outward, which) in [(v.min, -1.0, "min"), (v.max, 1.0, "max")] {
                 let Some(b) = bound else { continue };
                 if v.name == "seed" {
                     continue; // the seed's bounds are the FMI Integer's, not a rule
                 }
-                let x = b + outside * step * b.abs().max(1.0);
-                let mut c = DriveConfig::default();
-                let rejected = set(&mut c, x).is_err() || c.validate().is_err();
-                assert!(rejected, "{} = {x} was accepted", v.name);
+                let step = if v.kind == Kind::Real {
+                    1e-6 * b.abs().max(1.0)
+                } else if v.name == "motor.poles" {
+                    2.0 // poles come in pairs
+                } else {
+                    1.0
+                };
+                let ok = |x: f64| {
+                    let mut c = DriveConfig::default();
+                    set(&mut c, x).is_ok() && c.validate().is_ok()
+                };
+                // An Integer's bound is a value of it; a Real's may be exclusive.
+                let edge = if v.kind == Kind::Real {
+                    b - outward * step
+                } else {
+                    b
+                };
+                let outside = b + outward * step;
+                assert!(!ok(outside), "{} = {outside} was accepted", v.name);
+                if !tied.contains(&(v.name, which)) {
+                    assert!(ok(edge), "{} = {edge}, at its {which}, was refused", v.name);
+                }
             }
         }
     }
