@@ -440,9 +440,27 @@ fn simultaneous_freewheels_each_end_at_their_own_zero() {
         let mut eng = engine(PlantParams::default(), ctl);
         eng.plant.set_rotor(start_deg.to_radians(), 1000.0, true);
         let mut last = eng.plant.observe().conduction;
+        let expected = [
+            Conduction::DiodeLow,
+            Conduction::DiodeHigh,
+            Conduction::DiodeHigh,
+        ];
+        // Per phase: when its expected diode took the current, and when it then opened.
+        let (mut began, mut ended) = ([None::<f64>; 3], [None::<f64>; 3]);
         eng.run_until(Ticks::from_seconds(3e-3).unwrap(), |e, _| {
             let o = e.plant.observe();
             for p in bldc_drive::drive_core::Phase::ALL {
+                let k = p.index();
+                if o.conduction.get(p) == expected[k] && began[k].is_none() {
+                    began[k] = Some(o.t_s);
+                }
+                if began[k].is_some()
+                    && ended[k].is_none()
+                    && o.conduction.get(p) == Conduction::Open
+                {
+                    assert_eq!(o.i.get(p), 0.0, "phase {} opened with current", p.name());
+                    ended[k] = Some(o.t_s);
+                }
                 let (a, b) = (last.get(p), o.conduction.get(p));
                 let flipped = matches!(
                     (a, b),
@@ -469,6 +487,26 @@ fn simultaneous_freewheels_each_end_at_their_own_zero() {
             eng.plant.observe().i,
             Abc::splat(0.0),
             "all freewheels ended"
+        );
+        // Each phase freewheeled through its diode from the switch-off (2 ms) on, and
+        // stopped when its own current reached zero: v and w part at different instants
+        // (u, carrying their sum, ends with the later one).
+        let (began, ended) = (began.map(Option::unwrap), ended.map(|e| e.expect("ended")));
+        for k in 0..3 {
+            assert!(
+                (began[k] - 2e-3).abs() < 1e-12,
+                "θ0 = {start_deg}°: {began:?}"
+            );
+            assert!(
+                ended[k] > began[k],
+                "θ0 = {start_deg}°: {began:?} → {ended:?}"
+            );
+        }
+        assert_ne!(ended[1], ended[2], "θ0 = {start_deg}°: {ended:?}");
+        assert_eq!(
+            ended[0],
+            ended[1].max(ended[2]),
+            "θ0 = {start_deg}°: {ended:?}"
         );
     }
 }
