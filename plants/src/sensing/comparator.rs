@@ -519,10 +519,7 @@ impl ComparatorBank {
                 let (dpb, dnb) = if full {
                     (dp * self.q_seg_m1.0, dn * self.q_seg_m1.1)
                 } else {
-                    (
-                        dp * self.q_p.powi(span as i32),
-                        dn * self.q_n.powi(span as i32),
-                    )
+                    (dp * self.pow_p.real(span), dn * self.pow_n.real(span))
                 };
                 self.may_toggle(c, ta, tb, [dp, dn, dpb, dnb], env, n, n)
             };
@@ -563,8 +560,8 @@ impl ComparatorBank {
                 let q = self.q_seg_rot;
                 z = (z.0 * q.0 - z.1 * q.1, z.0 * q.1 + z.1 * q.0);
             } else if k <= k_end {
-                dp *= self.q_p.powi(span as i32 + 1);
-                dn *= self.q_n.powi(span as i32 + 1);
+                dp *= self.pow_p.real(span + 1);
+                dn *= self.pow_n.real(span + 1);
                 z = self.ring_at(k);
             }
         }

@@ -79,6 +79,8 @@ impl Segment {
 struct Pieces {
     seg: [Segment; 7],
     n: usize,
+    /// The filter output at the end of the update [V].
+    y_end: f64,
 }
 
 impl Pieces {
@@ -113,6 +115,7 @@ impl CurrentSense {
                 Pieces {
                     seg: [Segment::new(0.0, 0.0, [0.0; 4], 1.0); 7],
                     n: 1,
+                    y_end: 0.0,
                 },
                 0.0,
             ),
@@ -204,6 +207,7 @@ impl CurrentSense {
         let mut out = Pieces {
             seg: [Segment::new(0.0, self.y, [0.0; 4], self.tau); 7],
             n: 0,
+            y_end: self.y,
         };
         let mut y = self.y;
         for w in bounds[..=n_b].windows(2) {
@@ -223,6 +227,7 @@ impl CurrentSense {
             out.seg[out.n] = seg;
             out.n += 1;
         }
+        out.y_end = y;
         out
     }
 
@@ -243,7 +248,7 @@ impl CurrentSense {
             self.results.push_back((self.next_sample + self.conv, code));
             self.next_sample += self.conv;
         }
-        self.y = pieces.at(h);
+        self.y = pieces.y_end;
         self.last = (pieces, t0);
     }
 
