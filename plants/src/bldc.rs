@@ -911,7 +911,21 @@ impl BldcPlant {
             // nothing has changed the dynamics since.
             let k1 = match self.fsal.take() {
                 Some((x, f)) if x == x0 => f,
-                _ => self.deriv(&x0, b0),
+                // Else the network was just solved here (a gate change, an event, a
+                // settled lookahead): its di/dt and powers make the derivative.
+                _ => {
+                    debug_assert!(
+                        {
+                            let s = self.solve_near(&x0, b0);
+                            let (a, b) = (s.di.to_array(), self.start.di.to_array());
+                            (0..3).all(|k| (a[k] - b[k]).abs() <= 1e-9 * (1.0 + a[k].abs()))
+                                && s.powers.supply == self.start.powers.supply
+                        },
+                        "the network solution at the step's start is stale"
+                    );
+                    let f = emf::shape_with(&self.shape, x0[THETA], (b0.1, b0.2));
+                    self.assemble(&x0, &f, self.start.di.to_array(), &self.start.powers)
+                }
             };
             let f0 = k1;
             let mut x1 = self.rk4_from(&x0, t1 - t0, b0, k1);
