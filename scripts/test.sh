@@ -28,6 +28,8 @@ fi
 cargo xtask fmu >/dev/null
 
 cargo test --workspace --all-targets --locked "$@"
+# The API docs build without warnings (units in doc comments are written \[V\], not links).
+RUSTDOCFLAGS="-D warnings" cargo doc --workspace --no-deps --locked --quiet
 # The plugins fmu/tests/fmi_plugin.py loads (the same build the Rust tests make).
 cargo build --profile test --locked -p example-plugin -p misbehaving-plugin
 

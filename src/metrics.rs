@@ -18,7 +18,7 @@ pub struct TimeStats {
 }
 
 impl TimeStats {
-    /// Adds the value `x` seen at time `t` [s]; times must not decrease. The previous
+    /// Adds the value `x` seen at time `t` \[s\]; times must not decrease. The previous
     /// value is weighted by the time it was held.
     pub fn push(&mut self, t: f64, x: f64) {
         if let Some((t0, x0)) = self.last {
@@ -37,7 +37,7 @@ impl TimeStats {
         self.last = Some((t, x));
     }
 
-    /// Length of the window covered so far [s].
+    /// Length of the window covered so far \[s\].
     pub fn duration(&self) -> f64 {
         self.w
     }
@@ -122,11 +122,11 @@ pub fn wrap_deg(d: f64) -> f64 {
 /// How a signal answered a step of its reference from `from` to `to` at `t_step`.
 #[derive(Clone, Debug, Default, PartialEq, Serialize)]
 pub struct StepResponse {
-    /// Time from 10 % to 90 % of the change [s] (None if never reached).
+    /// Time from 10 % to 90 % of the change \[s\] (None if never reached).
     pub rise_s: Option<f64>,
     /// Largest excursion beyond `to`, in % of the change (0 if none).
     pub overshoot_pct: f64,
-    /// Time after the step after which the signal stays within ±2 % of `to` [s] (None if
+    /// Time after the step after which the signal stays within ±2 % of `to` \[s\] (None if
     /// it is outside the band at the end of the record).
     pub settling_s: Option<f64>,
 }
@@ -179,7 +179,7 @@ pub struct Disturbance {
     /// Largest drop below the reference after the step [signal units, e.g. rpm].
     pub dip: f64,
     /// Time after the step after which the signal stays within ±2 % of the reference
-    /// [s] (None if it is outside the band at the end of the record).
+    /// \[s\] (None if it is outside the band at the end of the record).
     pub recovery_s: Option<f64>,
 }
 

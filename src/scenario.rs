@@ -15,17 +15,17 @@ use strategies::{Mode, PluginLibrary};
 pub struct Scenario {
     /// Plant, chip and strategy. `control.speed_ref_rpm` is the command from t = 0.
     pub config: DriveConfig,
-    /// Simulated time [s].
+    /// Simulated time \[s\].
     pub duration_s: f64,
-    /// Later speed commands: (time [s], rpm), in time order.
+    /// Later speed commands: (time \[s\], rpm), in time order.
     pub speed_steps: Vec<(f64, f64)>,
-    /// Load torque on the shaft: (time [s], N·m), in time order; 0 before the first.
+    /// Load torque on the shaft: (time \[s\], N·m), in time order; 0 before the first.
     pub load_steps: Vec<(f64, f64)>,
-    /// Start of the steady-state window [s]; it ends at `duration_s`.
+    /// Start of the steady-state window \[s\]; it ends at `duration_s`.
     pub steady_from_s: f64,
-    /// Trace sampling: period [s] and the window [from, to] in which rows are produced.
+    /// Trace sampling: period \[s\] and the window [from, to] in which rows are produced.
     pub trace: Option<TraceSpec>,
-    /// Period of the decimated true-speed record [s] (for step responses and plots).
+    /// Period of the decimated true-speed record \[s\] (for step responses and plots).
     pub speed_record_s: f64,
     /// A plugin strategy to use instead of the built-in one named in the config.
     pub plugin: Option<PluginLibrary>,
@@ -34,11 +34,11 @@ pub struct Scenario {
 /// Which trace rows to produce.
 #[derive(Copy, Clone, Debug)]
 pub struct TraceSpec {
-    /// Sampling period [s], rounded to whole 20 ns ticks (at least one).
+    /// Sampling period \[s\], rounded to whole 20 ns ticks (at least one).
     pub every_s: f64,
-    /// First instant traced [s].
+    /// First instant traced \[s\].
     pub from_s: f64,
-    /// Last instant traced [s].
+    /// Last instant traced \[s\].
     pub to_s: f64,
 }
 
@@ -124,27 +124,27 @@ impl Scenario {
 /// One trace row: true plant signals and what the chip sees and does.
 #[derive(Copy, Clone, Debug, Default, PartialEq, Serialize)]
 pub struct TraceRow {
-    /// Time [s].
+    /// Time \[s\].
     pub t_s: f64,
-    /// True mechanical speed [rpm].
+    /// True mechanical speed \[rpm\].
     pub speed_rpm: f64,
-    /// The chip's FG speed measurement [rpm].
+    /// The chip's FG speed measurement \[rpm\].
     pub speed_est_rpm: f64,
     /// True electrical angle [°], 0..360, with e_u = λr·ωe·sin θe.
     pub theta_e_deg: f64,
-    /// Phase currents [A].
+    /// Phase currents \[A\].
     pub i_u: f64,
-    /// Phase current v [A].
+    /// Phase current v \[A\].
     pub i_v: f64,
-    /// Phase current w [A].
+    /// Phase current w \[A\].
     pub i_w: f64,
-    /// Terminal voltages to ground [V].
+    /// Terminal voltages to ground \[V\].
     pub v_u: f64,
-    /// Terminal v [V].
+    /// Terminal v \[V\].
     pub v_v: f64,
-    /// Terminal w [V].
+    /// Terminal w \[V\].
     pub v_w: f64,
-    /// Neutral to ground [V].
+    /// Neutral to ground \[V\].
     pub v_n: f64,
     /// Electromagnetic torque [N·m].
     pub torque_nm: f64,
@@ -228,17 +228,17 @@ impl TraceRow {
 pub struct Summary {
     /// Strategy name.
     pub strategy: String,
-    /// Speed command at the end [rpm].
+    /// Speed command at the end \[rpm\].
     pub speed_ref_rpm: f64,
-    /// Time-weighted mean of the true speed over the steady-state window [rpm].
+    /// Time-weighted mean of the true speed over the steady-state window \[rpm\].
     pub speed_mean_rpm: f64,
-    /// Standard deviation of the true speed over the window [rpm].
+    /// Standard deviation of the true speed over the window \[rpm\].
     pub speed_ripple_rpm: f64,
     /// Mean electromagnetic torque over the window [N·m].
     pub torque_mean_nm: f64,
     /// Standard deviation of the torque over the window [N·m].
     pub torque_ripple_nm: f64,
-    /// Phase-current RMS over the window, √(mean(i_u² + i_v² + i_w²)/3) [A].
+    /// Phase-current RMS over the window, √(mean(i_u² + i_v² + i_w²)/3) \[A\].
     pub current_rms_a: f64,
     /// Restarts (step-miss errors) during the whole run.
     pub restarts: u32,
@@ -253,11 +253,11 @@ pub struct Summary {
     /// Zero crossings taken by the demagnetisation timeout instead of the comparator,
     /// since the last hand-over.
     pub forced_crossings: u64,
-    /// Steady-state window [s].
+    /// Steady-state window \[s\].
     pub steady_from_s: f64,
-    /// Simulated time [s].
+    /// Simulated time \[s\].
     pub sim_s: f64,
-    /// Wall-clock time of the simulation [s].
+    /// Wall-clock time of the simulation \[s\].
     pub wall_s: f64,
     /// sim_s / wall_s.
     pub realtime_factor: f64,
@@ -268,9 +268,9 @@ pub struct Summary {
 pub struct Outcome {
     /// Steady-state metrics.
     pub summary: Summary,
-    /// True speed every `speed_record_s`: (t [s], rpm).
+    /// True speed every `speed_record_s`: (t \[s\], rpm).
     pub speed: Vec<(f64, f64)>,
-    /// Duty (voltage command / carrier top) at the same instants: (t [s], 0..1).
+    /// Duty (voltage command / carrier top) at the same instants: (t \[s\], 0..1).
     pub duty: Vec<(f64, f64)>,
 }
 

@@ -8,28 +8,28 @@ use bldc_drive::strategies::{Mode, StrategyName};
 
 /// What a closed-loop run produced.
 struct Run {
-    /// (t [s], true mechanical speed [rpm]) at every engine stop.
+    /// (t \[s\], true mechanical speed \[rpm\]) at every engine stop.
     speed: Vec<(f64, f64)>,
-    /// (t [s], voltage command in force [carrier counts]) at every engine stop.
+    /// (t \[s\], voltage command in force [carrier counts]) at every engine stop.
     duty: Vec<(f64, u32)>,
-    /// (t [s], current-PI integrator [carrier counts]) at every engine stop.
+    /// (t \[s\], current-PI integrator [carrier counts]) at every engine stop.
     integrator: Vec<(f64, f64)>,
     /// Signed error of the true electrical angle at each commutation after `settle_s`
     /// against the boundary of the state entered [electrical degrees].
     angle_err: Vec<f64>,
-    /// Time spent after `settle_s` in 3-phase (odd) and 2-phase (even) states [s].
+    /// Time spent after `settle_s` in 3-phase (odd) and 2-phase (even) states \[s\].
     post_pre_s: (f64, f64),
     restarts: u32,
     forced: u64,
     mode: Mode,
 }
 
-/// Something that happens during a run at a given time [s].
+/// Something that happens during a run at a given time \[s\].
 #[derive(Copy, Clone)]
 enum Event {
     /// Load torque [N·m] from then on.
     Load(f64),
-    /// Speed command [rpm] from then on.
+    /// Speed command \[rpm\] from then on.
     SpeedRef(f64),
     /// Twelve-step conduction angle [electrical degrees] from then on.
     Conduction(f64),

@@ -10,8 +10,8 @@ use common::*;
 const RPM: f64 = 2000.0;
 
 /// w floats (u→v driven) while the rotor is spun through θe = 30°..90°; e_w crosses zero
-/// (falling) at θe = 60°. Returns the visible w_d edges (time [s], θe [deg], new level) and
-/// the PWM edge times [s].
+/// (falling) at θe = 60°. Returns the visible w_d edges (time \[s\], θe \[deg\], new level) and
+/// the PWM edge times \[s\].
 fn run(duty: u32, seed: u64) -> (Vec<(f64, f64, bool)>, Vec<f64>) {
     let mut params = PlantParams::default();
     params.sensing.seed = seed;

@@ -11,7 +11,7 @@ pub struct Sensed {
     /// Comparator outputs u_d, v_d, w_d (true: terminal above neutral), as seen at the
     /// controller's input, i.e. after the comparators' propagation delay.
     pub zc: Abc<bool>,
-    /// Latest completed ADC conversion of the shunt-current channel [codes].
+    /// Latest completed ADC conversion of the shunt-current channel \[codes\].
     pub current_code: u16,
 }
 

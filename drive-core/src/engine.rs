@@ -38,7 +38,7 @@ pub enum EngineError {
     /// The controller asked for a pattern that shorts a leg; it is refused, never simulated.
     #[error("at t = {time_s} s the controller commanded a shoot-through: {source}")]
     ShootThrough {
-        /// When it was commanded [s].
+        /// When it was commanded \[s\].
         time_s: f64,
         /// Which leg.
         source: ShootThrough,
@@ -46,7 +46,7 @@ pub enum EngineError {
     /// The controller reported a fault (see [`Controller::fault`]).
     #[error("at t = {time_s} s the controller stopped: {message}")]
     ControllerFault {
-        /// When [s].
+        /// When \[s\].
         time_s: f64,
         /// The controller's reason.
         message: String,

@@ -33,7 +33,7 @@ impl GateDriver {
         self.effective
     }
 
-    /// The dead time [ticks].
+    /// The dead time \[ticks\].
     pub fn dead_time(&self) -> Ticks {
         self.dead_time
     }

@@ -36,7 +36,7 @@ pub struct Watch {
 /// Continuous dynamics driven by six gate signals and a load torque, producing the
 /// signals a controller senses.
 pub trait Plant {
-    /// Plant time [s]. Equals an engine tick instant except right after a diode event.
+    /// Plant time \[s\]. Equals an engine tick instant except right after a diode event.
     fn time_s(&self) -> f64;
 
     /// Applies the effective gate states from the current instant on.

@@ -15,7 +15,7 @@ pub type DutyCounts = u32;
 /// so the duty is exactly `cv/top` and every edge falls on a whole tick.
 #[derive(Copy, Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub struct Carrier {
-    /// Peak count of the carrier [counts]; default 2000; rule: 1 ≤ top ≤ 1 000 000.
+    /// Peak count of the carrier \[counts\]; default 2000; rule: 1 ≤ top ≤ 1 000 000.
     pub top: u32,
 }
 

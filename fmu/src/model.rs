@@ -67,11 +67,11 @@ pub struct Model {
     /// The instance's `resources` folder (from `fmuResourceLocation`), against which a
     /// relative `strategy.plugin` is resolved. Belongs to the instance, not to its states.
     pub resources: Option<PathBuf>,
-    /// `fmi2SetupExperiment` start time [s]: master tick 0 of the engine.
+    /// `fmi2SetupExperiment` start time \[s\]: master tick 0 of the engine.
     pub start_time: f64,
-    /// Stop time, if the master defined one [s].
+    /// Stop time, if the master defined one \[s\].
     pub stop_time: Option<f64>,
-    /// The current communication point as the master counts it [s].
+    /// The current communication point as the master counts it \[s\].
     pub time: f64,
     /// The drive, once built (at initialization, or earlier to answer output queries).
     pub drive: Option<Drive>,

@@ -67,7 +67,7 @@ impl EnumType {
 /// A drive input, set by the master between steps.
 #[derive(Copy, Clone, Debug, PartialEq, Eq)]
 pub enum Input {
-    /// Speed command [rpm] → `Strategy::set_speed_ref`.
+    /// Speed command \[rpm\] → `Strategy::set_speed_ref`.
     SpeedRef,
     /// Load torque on the shaft [N·m] → `BldcPlant::set_load_torque`.
     LoadTorque,
@@ -78,17 +78,17 @@ pub enum Input {
 /// A drive output, read from the plant's observation or the chip's status.
 #[derive(Copy, Clone, Debug, PartialEq, Eq)]
 pub enum Output {
-    /// True mechanical speed [rpm].
+    /// True mechanical speed \[rpm\].
     SpeedRpm,
-    /// The chip's FG speed measurement [rpm].
+    /// The chip's FG speed measurement \[rpm\].
     SpeedEstRpm,
-    /// Electrical angle θe [deg] in 0..360.
+    /// Electrical angle θe \[deg\] in 0..360.
     ThetaEDeg,
-    /// Phase current u [A].
+    /// Phase current u \[A\].
     IU,
-    /// Phase current v [A].
+    /// Phase current v \[A\].
     IV,
-    /// Phase current w [A].
+    /// Phase current w \[A\].
     IW,
     /// Electromagnetic torque [N·m].
     TorqueNm,

@@ -1,7 +1,7 @@
 //! The published BLDC motor on a six-switch bridge with shunt and comparator sensing.
 //!
-//! State: phase currents i_u, i_v, i_w [A], mechanical speed ωm [rad/s], electrical angle
-//! θe [rad, wrapped to 0..2π], plus energy integrals [J]. Between events the state is
+//! State: phase currents i_u, i_v, i_w \[A\], mechanical speed ωm [rad/s], electrical angle
+//! θe [rad, wrapped to 0..2π], plus energy integrals \[J\]. Between events the state is
 //! integrated with classical RK4 (step ≤ `solver.max_step_s`); the conduction topology is
 //! constant within a step. Mechanics: J·dωm/dt = Te − Bm·ωm − Tc·tanh(ωm/ω0) − TL, dθe/dt = (P/2)·ωm,
 //! Te = (P/2)·λr·Σ i_x·f(θx) so that Te·ωm = Σ e_x·i_x exactly.
@@ -24,7 +24,7 @@ const OMEGA: usize = 3;
 const THETA: usize = 4;
 const E_SUPPLY: usize = 5;
 
-/// Energies integrated along the run [J].
+/// Energies integrated along the run \[J\].
 #[derive(Copy, Clone, Debug, Default, PartialEq)]
 pub struct EnergyLedger {
     /// Drawn from V_DD (negative when regenerating).
@@ -54,27 +54,27 @@ pub struct EnergyLedger {
 /// A snapshot of the true plant signals (for traces and tests).
 #[derive(Copy, Clone, Debug, PartialEq)]
 pub struct Observation {
-    /// Time [s].
+    /// Time \[s\].
     pub t_s: f64,
-    /// Electrical angle θe [rad], 0..2π, with e_u = λr·ωe·sin θe for the sinusoidal shape.
+    /// Electrical angle θe \[rad\], 0..2π, with e_u = λr·ωe·sin θe for the sinusoidal shape.
     pub theta_e: f64,
     /// Mechanical speed [rad/s].
     pub omega_m: f64,
-    /// Mechanical speed [rpm].
+    /// Mechanical speed \[rpm\].
     pub speed_rpm: f64,
-    /// Phase currents into the windings [A].
+    /// Phase currents into the windings \[A\].
     pub i: Abc<f64>,
-    /// Terminal voltages to ground [V].
+    /// Terminal voltages to ground \[V\].
     pub v_term: Abc<f64>,
-    /// Neutral voltage to ground [V].
+    /// Neutral voltage to ground \[V\].
     pub v_n: f64,
-    /// Back-EMFs [V].
+    /// Back-EMFs \[V\].
     pub emf: Abc<f64>,
     /// Electromagnetic torque [N·m].
     pub torque_nm: f64,
     /// Conduction state of each leg.
     pub conduction: Abc<Conduction>,
-    /// Shunt current, positive to ground [A].
+    /// Shunt current, positive to ground \[A\].
     pub i_shunt: f64,
 }
 
@@ -240,7 +240,7 @@ impl BldcPlant {
         self.load_nm = if nm.is_finite() { nm } else { 0.0 };
     }
 
-    /// Sets rotor angle θe [rad] and speed [rpm]; `lock` holds the speed constant from now on
+    /// Sets rotor angle θe \[rad\] and speed \[rpm\]; `lock` holds the speed constant from now on
     /// (a dynamometer), otherwise the rotor is free.
     pub fn set_rotor(&mut self, theta_e: f64, speed_rpm: f64, lock: bool) {
         self.settle();

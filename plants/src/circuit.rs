@@ -61,7 +61,7 @@ impl Conduction {
     }
 }
 
-/// Instantaneous powers [W] (for the energy ledger).
+/// Instantaneous powers \[W\] (for the energy ledger).
 #[derive(Copy, Clone, Debug, Default, PartialEq)]
 pub struct Powers {
     /// Drawn from the supply: V_DD·Σ_high i_x.
@@ -83,11 +83,11 @@ pub struct Powers {
 pub struct Solution {
     /// di_x/dt [A/s].
     pub di: Abc<f64>,
-    /// Terminal voltages to ground [V].
+    /// Terminal voltages to ground \[V\].
     pub v_term: Abc<f64>,
-    /// Neutral voltage to ground [V].
+    /// Neutral voltage to ground \[V\].
     pub v_n: f64,
-    /// Shunt current, positive towards ground [A].
+    /// Shunt current, positive towards ground \[A\].
     pub i_shunt: f64,
     /// Powers.
     pub powers: Powers,
@@ -119,7 +119,7 @@ impl Circuit {
         }
     }
 
-    /// The diode clamps of an open terminal [V]: (low rail − V_f, V_DD + V_f).
+    /// The diode clamps of an open terminal \[V\]: (low rail − V_f, V_DD + V_f).
     fn clamps(&self, i_shunt: f64) -> (f64, f64) {
         (self.r_sh * i_shunt - self.vf, self.vdd + self.vf)
     }
@@ -240,14 +240,14 @@ impl Circuit {
         }
     }
 
-    /// Signed distance of an open terminal from the nearer diode clamp [V]: > 0 inside
+    /// Signed distance of an open terminal from the nearer diode clamp \[V\]: > 0 inside
     /// [low rail − V_f, V_DD + V_f], < 0 outside.
     pub fn clamp_margin(&self, v_term: f64, i_shunt: f64) -> f64 {
         let (lo, hi) = self.clamps(i_shunt);
         (v_term - lo).min(hi - v_term)
     }
 
-    /// How far an open terminal is outside the diode clamps [V]: > 0 above V_DD + V_f,
+    /// How far an open terminal is outside the diode clamps \[V\]: > 0 above V_DD + V_f,
     /// < 0 below the low rail − V_f, 0 inside.
     pub fn clamp_violation(&self, v_term: f64, i_shunt: f64) -> f64 {
         let (lo, hi) = self.clamps(i_shunt);

@@ -6,7 +6,7 @@ use std::f64::consts::{FRAC_PI_2, PI, TAU};
 
 const SIN_120: f64 = 0.866_025_403_784_438_6;
 
-/// Evaluates the shape for the three phases at electrical angle `theta` [rad]
+/// Evaluates the shape for the three phases at electrical angle `theta` \[rad\]
 /// (θu = θ, θv = θ − 120°, θw = θ + 120°).
 pub fn shape(kind: &BackEmfShape, theta: f64) -> Abc<f64> {
     shape_with(kind, theta, theta.sin_cos())
@@ -69,7 +69,7 @@ pub fn shape_with(kind: &BackEmfShape, theta: f64, (s, c): (f64, f64)) -> Abc<f6
     }
 }
 
-/// Odd, half-wave symmetric trapezoid of peak 1 with linear ramps of width `ramp` [rad]
+/// Odd, half-wave symmetric trapezoid of peak 1 with linear ramps of width `ramp` \[rad\]
 /// centred on the crossings at 0 and π.
 fn trapezoid(theta: f64, ramp: f64) -> f64 {
     let x = theta.rem_euclid(TAU);

@@ -38,12 +38,12 @@ pub struct MotorParams {
     pub poles: u32,
     /// PM flux-linkage amplitude per phase λr [Wb·turn]. Default 7.62e-4. Rule: > 0.
     pub flux_linkage_wb: f64,
-    /// Phase self inductance Lp [H]. Default 0.63e-3. Rule: > 0.
+    /// Phase self inductance Lp \[H\]. Default 0.63e-3. Rule: > 0.
     pub self_inductance_h: f64,
-    /// Mutual inductance between two phases M [H] (enters as −M·di_y/dt). Default 0.37e-3.
+    /// Mutual inductance between two phases M \[H\] (enters as −M·di_y/dt). Default 0.37e-3.
     /// Rule: ≥ 0. With no neutral current the phases see L = Lp + M.
     pub mutual_inductance_h: f64,
-    /// Phase resistance R [Ω]. Default 2.2. Rule: > 0.
+    /// Phase resistance R \[Ω\]. Default 2.2. Rule: > 0.
     pub resistance_ohm: f64,
     /// Rotor inertia J [kg·m²]. Default 17e-7. Rule: > 0.
     pub inertia_kgm2: f64,
@@ -140,7 +140,7 @@ impl MotorParams {
         self.poles as f64 / 2.0
     }
 
-    /// Inductance seen by each phase current when the neutral carries no current: Lp + M [H].
+    /// Inductance seen by each phase current when the neutral carries no current: Lp + M \[H\].
     pub fn phase_inductance_h(&self) -> f64 {
         self.self_inductance_h + self.mutual_inductance_h
     }
@@ -150,23 +150,23 @@ impl MotorParams {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct PowerStageParams {
-    /// Supply V_DD [V]. Default 12. Rule: > 0, ≤ 1000.
+    /// Supply V_DD \[V\]. Default 12. Rule: > 0, ≤ 1000.
     ///
     /// Not published. 12 V is the supply of optical-drive spindles; with this motor's
     /// line-to-line back-EMF (≈ 1.3 mV per electrical rad/s) it allows ≈ 15 000 rpm no-load,
     /// which covers the chip's 14-bit speed command, while the current loop keeps the
     /// winding current inside the 0–0.5 A sensing range.
     pub supply_v: f64,
-    /// On-resistance of each switch [Ω]. Default 0.2. Rule: ≥ 0.
+    /// On-resistance of each switch \[Ω\]. Default 0.2. Rule: ≥ 0.
     pub switch_on_resistance_ohm: f64,
-    /// Diode forward voltage [V]. Default 0.7. Rule: ≥ 0.
+    /// Diode forward voltage \[V\]. Default 0.7. Rule: ≥ 0.
     pub diode_forward_v: f64,
-    /// Diode slope resistance [Ω]. Default 0.05. Rule: ≥ 0.
+    /// Diode slope resistance \[Ω\]. Default 0.05. Rule: ≥ 0.
     pub diode_resistance_ohm: f64,
-    /// Current-sense shunt between the low-side switches and ground [Ω]. Default 0.25.
+    /// Current-sense shunt between the low-side switches and ground \[Ω\]. Default 0.25.
     /// Rule: ≥ 0. It is part of the power circuit (its drop lifts the low rail).
     pub shunt_ohm: f64,
-    /// Dead time inserted before every switch turn-on [s]. Default 0 (the chip chops one
+    /// Dead time inserted before every switch turn-on \[s\]. Default 0 (the chip chops one
     /// side only). Rule: 0..=10 µs; rounded to whole 20 ns ticks.
     pub dead_time_s: f64,
     /// Which switches chop (`high-side-chop`, `low-side-chop`, `complementary`). Default
@@ -239,15 +239,15 @@ impl PowerStageParams {
 pub struct CurrentSenseParams {
     /// Amplifier gain [V/V]. Default 80 (0.125 V → 10 V). Rule: > 0.
     pub amplifier_gain: f64,
-    /// Amplifier output swing: the output is clipped to 0..this [V]. Default 10. Rule: > 0.
+    /// Amplifier output swing: the output is clipped to 0..this \[V\]. Default 10. Rule: > 0.
     pub amplifier_max_v: f64,
-    /// First-order low-pass cut-off [Hz]. Default 25 000. Rule: 10 Hz ..= 10 MHz.
+    /// First-order low-pass cut-off \[Hz\]. Default 25 000. Rule: 10 Hz ..= 10 MHz.
     pub filter_cutoff_hz: f64,
-    /// ADC resolution [bits]. Default 12. Rule: 1..=16.
+    /// ADC resolution \[bits\]. Default 12. Rule: 1..=16.
     pub adc_bits: u32,
-    /// ADC full scale [V]. Default 10. Rule: > 0.
+    /// ADC full scale \[V\]. Default 10. Rule: > 0.
     pub adc_full_scale_v: f64,
-    /// Conversion time [s]: samples are taken back to back at this period and each result
+    /// Conversion time \[s\]: samples are taken back to back at this period and each result
     /// becomes readable one period after its sample. Default 20 µs. Rule: 0.1 µs ..= 1 s.
     pub adc_conversion_s: f64,
 }
@@ -310,33 +310,33 @@ impl CurrentSenseParams {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct ComparatorParams {
-    /// RC time constant of the phase-terminal paths [s]. Default 1.0 µs. Rule: 1 ns ..= 1 ms.
+    /// RC time constant of the phase-terminal paths \[s\]. Default 1.0 µs. Rule: 1 ns ..= 1 ms.
     pub phase_filter_tau_s: f64,
-    /// RC time constant of the neutral path [s]. Default 1.05 µs (5 % mismatch: a common-mode
+    /// RC time constant of the neutral path \[s\]. Default 1.05 µs (5 % mismatch: a common-mode
     /// step of ΔV leaves a differential spike of ≈ ΔV·0.05/e). Rule: 1 ns ..= 1 ms.
     pub neutral_filter_tau_s: f64,
-    /// Input offset per comparator [V] (positive: output switches later on a rising input).
+    /// Input offset per comparator \[V\] (positive: output switches later on a rising input).
     /// Default u +2 mV, v −1.5 mV, w +1 mV. Rule: |offset| ≤ 1 V.
     pub offset_v: Abc<f64>,
-    /// Hysteresis, full width [V]: the output rises above +h/2 and falls below −h/2.
+    /// Hysteresis, full width \[V\]: the output rises above +h/2 and falls below −h/2.
     /// Default 10 mV. Rule: 0 ..= 1 V.
     pub hysteresis_v: f64,
-    /// Propagation delay [s], rounded to 20 ns ticks. Default 100 ns. Rule: 0 ..= 100 µs.
+    /// Propagation delay \[s\], rounded to 20 ns ticks. Default 100 ns. Rule: 0 ..= 100 µs.
     pub delay_s: f64,
-    /// Peak input-referred noise [V], uniform in ±this, held for `noise_interval_s`.
+    /// Peak input-referred noise \[V\], uniform in ±this, held for `noise_interval_s`.
     /// Default 1 mV (peak-to-peak below the hysteresis, so a clean input never chatters).
     /// Rule: 0 ..= 1 V.
     pub noise_v: f64,
-    /// Interval between independent noise samples [s] (noise bandwidth ≈ 1/(2·interval)).
+    /// Interval between independent noise samples \[s\] (noise bandwidth ≈ 1/(2·interval)).
     /// Default 0.5 µs. Rule: 20 ns ..= 1 ms, rounded to ticks.
     pub noise_interval_s: f64,
     /// Ringing coupled into every comparator input per volt of switching-node step
     /// [V/V]. Default 0.02. Rule: 0 ..= 1.
     pub ring_gain: f64,
-    /// Ringing frequency [Hz] (parasitic L–C of the switching node). Default 5 MHz.
+    /// Ringing frequency \[Hz\] (parasitic L–C of the switching node). Default 5 MHz.
     /// Rule: 1 kHz ..= 1 GHz.
     pub ring_frequency_hz: f64,
-    /// Ringing decay time constant [s]. Default 0.2 µs. Rule: 1 ns ..= 1 ms.
+    /// Ringing decay time constant \[s\]. Default 0.2 µs. Rule: 1 ns ..= 1 ms.
     pub ring_decay_s: f64,
 }
 
@@ -489,7 +489,7 @@ impl SensingParams {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct SolverParams {
-    /// Longest RK4 step between events [s]. Default 40 µs, half the PWM period: with
+    /// Longest RK4 step between events \[s\]. Default 40 µs, half the PWM period: with
     /// τe = L/R = 0.45 ms the local error is ≈ (h/τe)^5/120 ≈ 5e-8. Comparator inputs are
     /// interpolated linearly over a step; near a crossing the floating phase's back-EMF is
     /// itself nearly linear, so this costs no crossing accuracy. Rule: 0.1 µs ..= 100 µs.

@@ -79,15 +79,15 @@ pub fn standard_variants(base: &StrategyParams) -> Vec<Variant> {
 /// The scenarios of the standard comparison.
 #[derive(Clone, Debug, Serialize)]
 pub struct Plan {
-    /// Speeds of the steady-state grid [rpm].
+    /// Speeds of the steady-state grid \[rpm\].
     pub grid_rpm: Vec<f64>,
-    /// Simulated time of each grid run [s]; steady state is the last third.
+    /// Simulated time of each grid run \[s\]; steady state is the last third.
     pub grid_duration_s: f64,
-    /// Grid speed whose run also records the crossing trace [rpm].
+    /// Grid speed whose run also records the crossing trace \[rpm\].
     pub trace_rpm: f64,
     /// Speed step out of saturation (what anti-windup is for).
     pub step: StepPlan,
-    /// Load step: speed [rpm], torque [N·m], at [s], run length [s].
+    /// Load step: speed \[rpm\], torque [N·m], at \[s\], run length \[s\].
     pub load: (f64, f64, f64, f64),
     /// Whether to search each strategy's speed range.
     pub ranges: bool,
@@ -119,17 +119,17 @@ impl Default for Plan {
 /// the command steps down to `to_rpm`. The response is measured from that step.
 #[derive(Copy, Clone, Debug, Serialize)]
 pub struct StepPlan {
-    /// Command from t = 0 [rpm].
+    /// Command from t = 0 \[rpm\].
     pub start_rpm: f64,
-    /// Command beyond reach [rpm].
+    /// Command beyond reach \[rpm\].
     pub beyond_rpm: f64,
-    /// When it is given [s].
+    /// When it is given \[s\].
     pub beyond_at_s: f64,
-    /// Command of the measured step [rpm].
+    /// Command of the measured step \[rpm\].
     pub to_rpm: f64,
-    /// When [s].
+    /// When \[s\].
     pub at_s: f64,
-    /// Run length [s].
+    /// Run length \[s\].
     pub duration_s: f64,
 }
 
@@ -149,16 +149,16 @@ pub struct StepRun {
     pub variant: String,
     /// Anti-windup on the current PI.
     pub anti_windup: bool,
-    /// True speed when the step was given [rpm].
+    /// True speed when the step was given \[rpm\].
     pub from_rpm: f64,
-    /// How long after the step the duty still reached 95 % [s] (the wound-up current
+    /// How long after the step the duty still reached 95 % \[s\] (the wound-up current
     /// loop holding full voltage after the command dropped).
     pub full_duty_after_s: f64,
     /// Response metrics.
     pub response: StepResponse,
     /// Restarts during the run.
     pub restarts: u32,
-    /// True speed record (t [s], rpm).
+    /// True speed record (t \[s\], rpm).
     #[serde(skip)]
     pub speed: Vec<(f64, f64)>,
 }
@@ -172,7 +172,7 @@ pub struct LoadRun {
     pub response: Disturbance,
     /// Restarts during the run.
     pub restarts: u32,
-    /// True speed record (t [s], rpm).
+    /// True speed record (t \[s\], rpm).
     #[serde(skip)]
     pub speed: Vec<(f64, f64)>,
 }
@@ -204,7 +204,7 @@ pub struct Comparison {
     /// Crossing traces (not in the JSON; plotted).
     #[serde(skip)]
     pub crossings: Vec<CrossingTrace>,
-    /// Wall-clock time of the whole comparison [s].
+    /// Wall-clock time of the whole comparison \[s\].
     pub wall_s: f64,
     /// Threads used.
     pub threads: usize,

@@ -12,9 +12,9 @@ use strategies::PluginLibrary;
 /// The criterion, stated in every range result.
 pub const CRITERION: &str = "started from standstill with the command, after 3 s of simulated time: running closed loop, no restart, mean true speed over the last 1 s within 2 % of the command";
 
-/// Lowest speed searched [rpm].
+/// Lowest speed searched \[rpm\].
 pub const SEARCH_MIN_RPM: f64 = 100.0;
-/// Highest speed searched [rpm] (the 14-bit speed command tops out at 16383).
+/// Highest speed searched \[rpm\] (the 14-bit speed command tops out at 16383).
 pub const SEARCH_MAX_RPM: f64 = 16000.0;
 /// Relative resolution of the bisection.
 const RESOLUTION: f64 = 0.03;
@@ -26,9 +26,9 @@ const SEEDS: [f64; 5] = [3000.0, 2000.0, 4500.0, 1000.0, 6000.0];
 pub struct Range {
     /// Strategy label.
     pub strategy: String,
-    /// Lowest controllable speed found [rpm] (None: none controllable).
+    /// Lowest controllable speed found \[rpm\] (None: none controllable).
     pub min_rpm: Option<f64>,
-    /// Highest controllable speed found [rpm].
+    /// Highest controllable speed found \[rpm\].
     pub max_rpm: Option<f64>,
     /// The criterion.
     pub criterion: &'static str,

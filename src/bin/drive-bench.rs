@@ -67,10 +67,10 @@ struct RunArgs {
     /// Strategy name (see `drive-bench list`).
     #[arg(long)]
     strategy: String,
-    /// Speed command [rpm].
+    /// Speed command \[rpm\].
     #[arg(long)]
     speed_rpm: f64,
-    /// Simulated time [s]; steady state is the last third.
+    /// Simulated time \[s\]; steady state is the last third.
     #[arg(long, default_value_t = 3.0)]
     duration_s: f64,
     /// Load torque on the shaft from t = 0 [N·m].
@@ -85,7 +85,7 @@ struct RunArgs {
     /// Writes a trace (CSV) of the whole run.
     #[arg(long)]
     trace: Option<PathBuf>,
-    /// Trace sampling period [µs].
+    /// Trace sampling period \[µs\].
     #[arg(long, default_value_t = 10.0)]
     trace_every_us: f64,
     /// Writes the summary as JSON.

@@ -19,7 +19,7 @@ use drive_core::{Abc, Command, Controller, Pattern, Sensed, Ticks, clocks};
 /// Master clocks the start input must be held before start-up begins (SPEC §7).
 pub const START_DEBOUNCE: Ticks = Ticks(31);
 
-/// Blanking after a commutation before a pre-crossing level counts as genuine [ticks]:
+/// Blanking after a commutation before a pre-crossing level counts as genuine \[ticks\]:
 /// 10 µs, well above the comparator's response (≈ 1 µs RC + 0.1 µs) plus the filter's.
 pub const BLANKING: Ticks = Ticks(500);
 
@@ -78,9 +78,9 @@ pub struct ChipStatus {
     pub linear: bool,
     /// Voltage command in force [carrier counts].
     pub duty: u32,
-    /// FG speed measurement [rpm].
+    /// FG speed measurement \[rpm\].
     pub speed_est_rpm: u32,
-    /// Current command from the speed PI [A].
+    /// Current command from the speed PI \[A\].
     pub current_ref_a: f64,
     /// Integrator of the current PI [carrier counts]; above the carrier top only without
     /// anti-windup (wound up).
@@ -227,14 +227,14 @@ impl Chip {
         self.reset = level;
     }
 
-    /// Sets the speed command [rpm], clamped to the 14-bit register (0..16383).
+    /// Sets the speed command \[rpm\], clamped to the 14-bit register (0..16383).
     pub fn set_speed_ref(&mut self, rpm: f64) {
         if rpm.is_finite() {
             self.speed_ref_rpm = rpm.clamp(0.0, crate::params::SPEED_CMD_MAX_RPM);
         }
     }
 
-    /// The speed command in force [rpm].
+    /// The speed command in force \[rpm\].
     pub fn speed_ref_rpm(&self) -> f64 {
         self.speed_ref_rpm
     }

@@ -23,9 +23,9 @@ pub struct Guard {
     pub kind: GuardKind,
     /// θmax [whole degrees].
     pub window_deg: u32,
-    /// ωm [rpm].
+    /// ωm \[rpm\].
     pub lm_min_rpm: u32,
-    /// ωM [rpm].
+    /// ωM \[rpm\].
     pub lm_max_rpm: u32,
     /// The digital filter (clocked only by `df`).
     pub filter: DigitalFilter,

@@ -10,7 +10,7 @@ use serde::{Deserialize, Serialize};
 use std::fmt;
 use std::str::FromStr;
 
-/// Largest speed command the chip's 14-bit speed register holds [rpm].
+/// Largest speed command the chip's 14-bit speed register holds \[rpm\].
 pub const SPEED_CMD_MAX_RPM: f64 = 16_383.0;
 
 /// Speed and current control, start-up and supervision (`[control]`).
@@ -28,7 +28,7 @@ pub const SPEED_CMD_MAX_RPM: f64 = 16_383.0;
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct ControlParams {
-    /// Speed command ωc [rpm]. Default 3000. Rule: 0..=16383 (14-bit register).
+    /// Speed command ωc \[rpm\]. Default 3000. Rule: 0..=16383 (14-bit register).
     pub speed_ref_rpm: f64,
     /// Speed PI proportional gain [A/rpm]. Default 5.0e-5. Rule: ≥ 0.
     pub speed_kp: f64,
@@ -40,12 +40,12 @@ pub struct ControlParams {
     /// Current PI integral gain per PI update [carrier counts/(A·update)]. Default 600.
     /// Rule: ≥ 0.
     pub current_ki: f64,
-    /// Current command limit: output and integrator saturation of the speed PI [A].
+    /// Current command limit: output and integrator saturation of the speed PI \[A\].
     /// Default 0.25. It must stay below the current sense's full scale (0.5 A with the
     /// default sensing: the amplifier clips at 10 V), or a clipped reading can never exceed
     /// the command and the current loop stops limiting. Rule: 0 < x ≤ 10.
     pub current_limit_a: f64,
-    /// Current command from the hand-over until the first FG speed measurement [A]: the
+    /// Current command from the hand-over until the first FG speed measurement \[A\]: the
     /// speed PI has nothing to act on before it. Default 0.15. Rule: 0 < x ≤
     /// `current_limit_a`. Too much and the shifter, which times each commutation from the
     /// previous 60° interval, falls behind a rotor accelerating from near standstill.
@@ -53,27 +53,27 @@ pub struct ControlParams {
     /// Back-calculation anti-windup on the current PI. Default true.
     pub anti_windup: bool,
     /// Back-calculation gain k_s: the integrator input is reduced by k_s·(uc − limit)
-    /// [1]. Default 32 (the chip's). Rule: 0..=1024.
+    /// \[1\]. Default 32 (the chip's). Rule: 0..=1024.
     pub anti_windup_gain: f64,
     /// Voltage command during alignment and start-up [fraction of the carrier top, 0..1].
     /// Default 0.2 (≈ 0.5 A into a locked phase pair at 12 V). Rule: 0 < x ≤ 1.
     pub startup_duty: f64,
-    /// Durations of the three alignment steps u→v, v→w, v→u [s]; each is rounded to the
+    /// Durations of the three alignment steps u→v, v→w, v→u \[s\]; each is rounded to the
     /// align clock (327.68 µs). Default [0.7, 0.038, 0.015] (SPEC §7). Rule: each in
     /// 0.000 327 68..=10.
     pub align_s: [f64; 3],
     /// Time the floating-phase crossing logic assumes for the first 60° after the hand-over
-    /// to closed loop, before it has measured one [s]. Default 0.015. Rule: 1e-5..=0.02
+    /// to closed loop, before it has measured one \[s\]. Default 0.015. Rule: 1e-5..=0.02
     /// (the 15-bit 0.64 µs counter holds at most 20.97 ms).
     pub handover_t60_s: f64,
     /// Step-miss limit: FG_c unchanged for longer than this raises an error and restarts
-    /// [s]. Default 0.05 (below 100 rpm). Rule: 0.001..=10.
+    /// \[s\]. Default 0.05 (below 100 rpm). Rule: 0.001..=10.
     pub step_miss_s: f64,
     /// Restarts allowed before the drive gives up and stays off. Default 5. Rule: ≤ 1000.
     pub max_restarts: u32,
     /// FG periods per speed measurement k. Default 10. Rule: 1..=100.
     pub speed_periods: u32,
-    /// Width of the speed counter (2.56 µs counts) [bits]. Default 15 (SPEC §7 "counters 15
+    /// Width of the speed counter (2.56 µs counts) \[bits\]. Default 15 (SPEC §7 "counters 15
     /// bit"): it saturates at 32767 counts, so with k = 10 and 12 poles the lowest speed it
     /// can read is 39 062 500 / 32767 ≈ 1192 rpm. Rule: 8..=32.
     pub speed_counter_bits: u32,
@@ -324,10 +324,10 @@ pub struct StrategyParams {
     /// Linear-region window θZC before each expected crossing [whole electrical degrees]
     /// (`nd`; the upper end of `lm`). Default 15. Rule: 1..=60.
     pub linear_region_deg: u32,
-    /// ωM: speed from which `lm` uses the full window [rpm]. Default 8000. Rule: > ωm,
+    /// ωM: speed from which `lm` uses the full window \[rpm\]. Default 8000. Rule: > ωm,
     /// ≤ 16383.
     pub lm_speed_max_rpm: u32,
-    /// ωm: speed at and below which `lm` uses a 1° window [rpm]. Default 1000.
+    /// ωm: speed at and below which `lm` uses a 1° window \[rpm\]. Default 1000.
     pub lm_speed_min_rpm: u32,
     /// Flip-flops of the digital filter (3 in the chip), clocked at 0.64 µs. Default 3.
     /// Rule: 1..=64.

@@ -1,7 +1,7 @@
 //! FG speed measurement (SPEC §6): count the 2.56 µs clock over k FG periods.
 //!
 //! One FG period is one electrical turn, i.e. 1/(P/2) of a mechanical turn, so with N counts
-//! of 2.56 µs over k periods: ω [rpm] = 60·k / ((P/2)·N·2.56 µs) = 23 437 500·k / ((P/2)·N).
+//! of 2.56 µs over k periods: ω \[rpm\] = 60·k / ((P/2)·N·2.56 µs) = 23 437 500·k / ((P/2)·N).
 //! For P = 12 and k = 10 that is the chip's ω = 39 062 500 / N. The result is an integer
 //! (the chip divides), updated once per k periods; the counter saturates at its width, which
 //! sets the lowest speed it can read.
@@ -51,7 +51,7 @@ impl SpeedMeter {
         }
     }
 
-    /// Latest measured speed [rpm] (0 before the first measurement).
+    /// Latest measured speed \[rpm\] (0 before the first measurement).
     pub fn rpm(&self) -> u32 {
         self.rpm
     }

@@ -22,9 +22,9 @@ pub trait Strategy: Controller + Send {
     fn set_start(&mut self, now: Ticks, level: bool);
     /// Sets the reset input (while high: bridge off, restart count cleared).
     fn set_reset(&mut self, level: bool);
-    /// Sets the speed command [rpm] (clamped to what the strategy can represent).
+    /// Sets the speed command \[rpm\] (clamped to what the strategy can represent).
     fn set_speed_ref(&mut self, rpm: f64);
-    /// The speed command in force [rpm].
+    /// The speed command in force \[rpm\].
     fn speed_ref_rpm(&self) -> f64;
     /// Changes the twelve-step conduction angle while running [electrical degrees,
     /// 120 ≤ x < 180], effective from the next crossing: the source's future work of moving

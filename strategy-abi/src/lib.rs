@@ -86,7 +86,7 @@ pub struct DriveInfo {
     pub pole_pairs: u32,
     /// Current-sense scale [A per ADC code].
     pub amps_per_code: f64,
-    /// PWM carrier top [counts] (duty = cv / top).
+    /// PWM carrier top \[counts\] (duty = cv / top).
     pub carrier_top: u32,
 }
 
@@ -100,7 +100,7 @@ pub struct Inputs {
     pub start: u8,
     /// Reset input (1 = high).
     pub reset: u8,
-    /// Speed command [rpm].
+    /// Speed command \[rpm\].
     pub speed_ref_rpm: f64,
 }
 
@@ -125,7 +125,7 @@ pub struct CCommand {
     pub duty: u32,
     /// Comparator channels whose changes must wake the strategy (1 = watch).
     pub watch: [u8; 3],
-    /// Next instant the strategy must run even without a watched change [ticks];
+    /// Next instant the strategy must run even without a watched change \[ticks\];
     /// `u64::MAX` for none.
     pub wake_at: u64,
 }
@@ -146,9 +146,9 @@ pub struct CStatus {
     pub linear: u8,
     /// Voltage command [carrier counts].
     pub duty: u32,
-    /// Speed measurement [rpm].
+    /// Speed measurement \[rpm\].
     pub speed_est_rpm: u32,
-    /// Current command [A].
+    /// Current command \[A\].
     pub current_ref_a: f64,
     /// Current-PI integrator [carrier counts] (0 if the strategy has none).
     pub current_integrator: f64,
@@ -176,7 +176,7 @@ pub struct CTable {
 pub struct ErrorBuf {
     /// Start of the host's buffer.
     pub ptr: *mut u8,
-    /// Its capacity [bytes].
+    /// Its capacity \[bytes\].
     pub cap: usize,
     /// Bytes written.
     pub len: usize,

@@ -93,13 +93,13 @@ impl History {
 #[derive(Clone, Debug)]
 struct Channel {
     x: Phase,
-    /// Start of the step [s].
+    /// Start of the step \[s\].
     t0: f64,
     /// The step's first tick and e^{−τ/τp}, e^{−τ/τn} there: the decays at a later tick
     /// follow by table (see [`ComparatorBank::decay`]).
     k_s: u64,
     base: (f64, f64),
-    /// l = α − offset [V], β [V/s], A and B [V] (the filter transients at τ = 0).
+    /// l = α − offset \[V\], β [V/s], A and B \[V\] (the filter transients at τ = 0).
     l: f64,
     beta: f64,
     a: f64,
@@ -789,7 +789,7 @@ impl ComparatorBank {
         self.toggles
     }
 
-    /// Filter outputs (phase paths, neutral path) [V], for traces.
+    /// Filter outputs (phase paths, neutral path) \[V\], for traces.
     pub fn filtered(&self) -> (Abc<f64>, f64) {
         (self.y, self.y_n)
     }

@@ -29,11 +29,11 @@ pub struct CurrentSense {
     /// over the longest update, since an update may run ahead of the instants read.
     results: VecDeque<(u64, u16)>,
     next_sample: u64,
-    /// The last update's filter pieces and start [s], to cut it short.
+    /// The last update's filter pieces and start \[s\], to cut it short.
     last: (Pieces, f64),
 }
 
-/// The filter over one piece of an update, from τa on: input u(τ) = Σ c_k·τ^k [V] (cubic
+/// The filter over one piece of an update, from τa on: input u(τ) = Σ c_k·τ^k \[V\] (cubic
 /// at most), output y(τ) = p(τ) + (ya − p(τa))·e^{−(τ − τa)/T} with
 /// p = u − T·u′ + T²·u″ − T³·u‴ (the polynomial particular solution of T·y′ + y = u).
 #[derive(Copy, Clone, Debug)]
@@ -79,7 +79,7 @@ impl Segment {
 struct Pieces {
     seg: [Segment; 7],
     n: usize,
-    /// The filter output at the end of the update [V].
+    /// The filter output at the end of the update \[V\].
     y_end: f64,
 }
 
@@ -122,7 +122,7 @@ impl CurrentSense {
         }
     }
 
-    /// Amplifier output for a shunt current [V].
+    /// Amplifier output for a shunt current \[V\].
     pub fn amplifier_v(&self, i_shunt: f64) -> f64 {
         (i_shunt * self.volts_per_amp).clamp(0.0, self.max_v)
     }
@@ -134,7 +134,7 @@ impl CurrentSense {
     }
 
     /// The filter over [0, h] with the shunt current the cubic Hermite interpolant of
-    /// currents `i0`, `i1` [A] and slopes `d0`, `d1` [A/s], clipped to the amplifier's swing.
+    /// currents `i0`, `i1` \[A\] and slopes `d0`, `d1` [A/s], clipped to the amplifier's swing.
     fn pieces(&self, h: f64, (i0, d0): (f64, f64), (i1, d1): (f64, f64)) -> Pieces {
         let g = self.volts_per_amp;
         let (y0, y1, m0, m1) = (g * i0, g * i1, g * d0 * h, g * d1 * h);
@@ -231,7 +231,7 @@ impl CurrentSense {
         out
     }
 
-    /// Advances over [t0, t1] with the shunt current and its slope (`i` [A], `di` [A/s]) at
+    /// Advances over [t0, t1] with the shunt current and its slope (`i` \[A\], `di` [A/s]) at
     /// both ends, taking every ADC sample that falls in (t0, t1].
     pub fn update(&mut self, t0: f64, t1: f64, start: (f64, f64), end: (f64, f64)) {
         let h = t1 - t0;
@@ -252,7 +252,7 @@ impl CurrentSense {
         self.last = (pieces, t0);
     }
 
-    /// Cuts the last update short at `t` [s] (inside it): samples after `t` are forgotten
+    /// Cuts the last update short at `t` \[s\] (inside it): samples after `t` are forgotten
     /// and the filter takes its value at `t`.
     pub fn truncate_at(&mut self, t: f64) {
         let (pieces, t0) = self.last;
@@ -278,7 +278,7 @@ impl CurrentSense {
         self.full_scale / self.codes / self.volts_per_amp
     }
 
-    /// Filter output [V].
+    /// Filter output \[V\].
     pub fn filtered_v(&self) -> f64 {
         self.y
     }

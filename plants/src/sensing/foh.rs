@@ -4,13 +4,13 @@
 /// `tau·dy/dτ = u(τ) − y` with `u(τ) = a + b·τ` and `y(0) = y0`.
 #[derive(Copy, Clone, Debug, PartialEq)]
 pub struct Foh {
-    /// Input at τ = 0 [V].
+    /// Input at τ = 0 \[V\].
     pub a: f64,
     /// Input slope [V/s].
     pub b: f64,
-    /// Amplitude of the decaying transient [V].
+    /// Amplitude of the decaying transient \[V\].
     pub c: f64,
-    /// Filter time constant [s].
+    /// Filter time constant \[s\].
     pub tau: f64,
 }
 
