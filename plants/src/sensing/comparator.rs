@@ -342,6 +342,7 @@ impl ComparatorBank {
 
     /// e^{−τ/τp}, e^{−τ/τn} at tick `k` (not before the step's first) of `c`'s step.
     fn decay(&self, c: &Channel, k: u64) -> (f64, f64) {
+        debug_assert!(k >= c.k_s, "tick {k} before the step's first, {}", c.k_s);
         let n = k - c.k_s;
         (c.base.0 * self.pow_p.real(n), c.base.1 * self.pow_n.real(n))
     }
@@ -668,8 +669,11 @@ impl ComparatorBank {
                 continue;
             };
             if k_stop < cur.k_end {
-                // Cut short: the end's factors belong to the new end.
                 cur.k_end = k_stop;
+                if cur.k > k_stop {
+                    continue; // cut before the next tick: nothing left to decide
+                }
+                // Cut short: the end's factors belong to the new end.
                 let end = self.decay(&cur.c, k_stop);
                 cur.w_end = [end.0, end.1];
             }
@@ -850,6 +854,25 @@ mod tests {
             long.toggle_count()
         );
         assert_eq!(long.toggle_count(), short.toggle_count());
+    }
+
+    #[test]
+    fn a_step_cut_at_its_start_leaves_the_pending_scans_untouched() {
+        // Channels nobody watches, sitting on their threshold: their scans stay pending.
+        let p = chattering();
+        let v = Abc::splat(0.0);
+        let mut c = ComparatorBank::new(&p, 7, &v, 0.0);
+        let none = Abc::splat(false);
+        c.update(0.0, 1000.0 * TICK_S, &v, 0.0, &v, 0.0, none);
+        assert!(c.pending.iter().all(Option::is_some), "scans pending");
+        // Cut at the step's start, before its first tick: nothing of it remains.
+        c.truncate_at(Ticks(0));
+        assert_eq!(c.toggle_count(), 0);
+        assert!(c.pending.iter().all(Option::is_none));
+        assert_eq!(
+            c.outputs_at(Ticks(0)),
+            ComparatorBank::new(&p, 7, &v, 0.0).outputs_at(Ticks(0))
+        );
     }
 
     #[test]
