@@ -335,20 +335,22 @@ pub fn run(sc: &Scenario, mut on_row: impl FnMut(&TraceRow)) -> Result<Outcome, 
             }
             let t = e.plant.time_s();
             let s = e.controller.status();
-            let steady = t >= steady_from;
+            let (recorded, steady) = (t >= next_record, t >= steady_from);
             // Observing inside an integrated step costs an RK4 step: only when recorded.
-            let o = (steady || t >= next_record).then(|| e.plant.observe());
-            if let Some(o) = o.as_ref().filter(|_| t >= next_record) {
-                record.push((t, o.speed_rpm));
-                duty.push((t, f64::from(s.duty) / top));
-                next_record = t + sc.speed_record_s;
-            }
-            if let Some(o) = o.filter(|_| steady) {
-                speed.push(t, o.speed_rpm);
-                torque.push(t, o.torque_nm);
-                i_sq.push(t, (o.i.u * o.i.u + o.i.v * o.i.v + o.i.w * o.i.w) / 3.0);
-                if s.state != last_state && s.state != 0 && last_state != 0 {
-                    angles.push(o.theta_e.to_degrees(), table.state_start_deg(s.state));
+            if recorded || steady {
+                let o = e.plant.observe();
+                if recorded {
+                    record.push((t, o.speed_rpm));
+                    duty.push((t, f64::from(s.duty) / top));
+                    next_record = t + sc.speed_record_s;
+                }
+                if steady {
+                    speed.push(t, o.speed_rpm);
+                    torque.push(t, o.torque_nm);
+                    i_sq.push(t, (o.i.u * o.i.u + o.i.v * o.i.v + o.i.w * o.i.w) / 3.0);
+                    if s.state != last_state && s.state != 0 && last_state != 0 {
+                        angles.push(o.theta_e.to_degrees(), table.state_start_deg(s.state));
+                    }
                 }
             }
             last_state = s.state;

@@ -17,13 +17,7 @@ pub struct Foh {
 impl Foh {
     /// The segment from filter state `y0` with input going from `u0` to `u1` over `h` seconds.
     pub fn new(y0: f64, u0: f64, u1: f64, h: f64, tau: f64) -> Self {
-        let b = if h > 0.0 { (u1 - u0) / h } else { 0.0 };
-        Foh {
-            a: u0,
-            b,
-            c: y0 - u0 + b * tau,
-            tau,
-        }
+        Foh::ramp(y0, u0, if h > 0.0 { (u1 - u0) / h } else { 0.0 }, tau)
     }
 
     /// The segment from filter state `y0` with input `u0 + slope·τ` [V, V/s].
