@@ -40,6 +40,13 @@ fn start(import: &Fmi2Import, name: &str, plugin: Option<&str>) -> InstanceCS {
     inst
 }
 
+/// `strategy.plugin` as fmi2GetString returns it.
+fn plugin_of(import: &Fmi2Import, inst: &mut InstanceCS) -> String {
+    let mut got = [CString::default()];
+    Common::get_string(inst, &[vr(import, "strategy.plugin")], &mut got).unwrap();
+    got[0].to_str().expect("UTF-8").to_owned()
+}
+
 /// Outputs now (speed, current, duty, commutation state, measured speed).
 fn sample(import: &Fmi2Import, inst: &mut InstanceCS) -> [f64; 5] {
     let mut real = [0.0; 3];
@@ -78,10 +85,8 @@ fn the_example_plugin_in_the_fmu_reproduces_the_builtin_strategy_bit_for_bit() {
     let reference = run(&import, &mut builtin, 0);
 
     let mut inst = start(&import, "plugin", Some(lib));
-    let mut got = [CString::default()];
-    Common::get_string(&mut inst, &[vr(&import, "strategy.plugin")], &mut got).unwrap();
     assert_eq!(
-        got[0].to_str().unwrap(),
+        plugin_of(&import, &mut inst),
         lib,
         "fmi2GetString returns the path set"
     );
@@ -132,10 +137,8 @@ fn the_example_plugin_in_the_fmu_reproduces_the_builtin_strategy_bit_for_bit() {
         rest.last().map(|x| x.map(f64::to_bits)),
         reference.last().map(|x| x.map(f64::to_bits))
     );
-    let mut got = [CString::default()];
-    Common::get_string(&mut fresh, &[vr(&import, "strategy.plugin")], &mut got).unwrap();
     assert_eq!(
-        got[0].to_str().unwrap(),
+        plugin_of(&import, &mut fresh),
         lib,
         "the state carries the parameter"
     );
