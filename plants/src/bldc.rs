@@ -17,6 +17,7 @@ use crate::sensing::{ComparatorBank, CurrentSense};
 use drive_core::{Abc, Gates, ParamError, Phase, Plant, PlantStop, Sensed, Ticks, Watch};
 use nalgebra::SVector;
 use std::f64::consts::TAU;
+use std::sync::Arc;
 
 const N: usize = 14;
 type State = SVector<f64, N>;
@@ -163,9 +164,10 @@ pub struct BldcPlant {
     same_instant_events: u32,
     /// Phases whose events are ignored for one step (see `finish_step`).
     muted: [bool; 3],
-    /// The network's affine form for the present conduction state, and a cache of all 125.
-    lin: Linearised,
-    lin_cache: Vec<Option<Linearised>>,
+    /// The network's affine forms for all 125 conduction states (built once, shared by
+    /// clones), and the index of the present one.
+    lin_all: Arc<[Linearised]>,
+    lin: usize,
     /// The step integrated ahead of `t`, if any.
     lookahead: Option<Lookahead>,
     /// The derivative at the committed state, while the dynamics stay as they were.
@@ -218,8 +220,8 @@ impl BldcPlant {
             cur,
             same_instant_events: 0,
             muted: [false; 3],
-            lin: circuit.linearise(&modes),
-            lin_cache: vec![None; 125],
+            lin_all: all_linearised(&circuit),
+            lin: lin_index(&modes),
             reported: Ticks::ZERO,
             lookahead: None,
             fsal: None,
@@ -319,7 +321,7 @@ impl BldcPlant {
         let f = emf::shape_with(&self.shape, x[THETA], emf::sin_cos_near(x[THETA], base));
         let k = self.lambda * self.pp * x[OMEGA];
         let e = [k * f.u, k * f.v, k * f.w];
-        let (di, p) = self.lin.eval(&[x[0], x[1], x[2]], &e);
+        let (di, p) = self.lin_all[self.lin].eval(&[x[0], x[1], x[2]], &e);
         self.assemble(x, &f, di, &p)
     }
 
@@ -630,16 +632,7 @@ impl BldcPlant {
             at_clamp,
             keep_open,
         );
-        let m = self.modes.map(|c| c as usize);
-        let idx = m.u * 25 + m.v * 5 + m.w;
-        self.lin = match self.lin_cache[idx] {
-            Some(l) => l,
-            None => {
-                let l = self.circuit.linearise(&self.modes);
-                self.lin_cache[idx] = Some(l);
-                l
-            }
-        };
+        self.lin = lin_index(&self.modes);
     }
 
     /// The clock edge (not before `now`) at which the first watched change not yet reported
@@ -991,6 +984,36 @@ impl BldcPlant {
             }
         }
     }
+}
+
+/// Where the affine form of conduction state `modes` sits among all 125.
+fn lin_index(modes: &Abc<Conduction>) -> usize {
+    let m = modes.map(|c| c as usize);
+    m.u * 25 + m.v * 5 + m.w
+}
+
+/// The network's affine form for every conduction state, indexed by [`lin_index`]: built
+/// up front (875 network solutions) so that a topology change copies an index, not a form.
+fn all_linearised(circuit: &Circuit) -> Arc<[Linearised]> {
+    const ALL: [Conduction; 5] = [
+        Conduction::SwitchHigh,
+        Conduction::SwitchLow,
+        Conduction::DiodeHigh,
+        Conduction::DiodeLow,
+        Conduction::Open,
+    ];
+    let lin: Arc<[Linearised]> = (0..125)
+        .map(|k| {
+            let modes = Abc {
+                u: ALL[k / 25],
+                v: ALL[k / 5 % 5],
+                w: ALL[k % 5],
+            };
+            debug_assert_eq!(lin_index(&modes), k);
+            circuit.linearise(&modes)
+        })
+        .collect();
+    lin
 }
 
 /// tanh(x), the smooth sign of the Coulomb friction: ±1 without the call beyond |x| = 20,
