@@ -24,6 +24,12 @@ type State = SVector<f64, N>;
 const OMEGA: usize = 3;
 const THETA: usize = 4;
 const E_SUPPLY: usize = 5;
+/// The dynamic part of the state (currents, speed, angle): what the derivative depends on.
+type Dyn = [f64; E_SUPPLY];
+
+fn dynamic(x: &State) -> Dyn {
+    std::array::from_fn(|j| x[j])
+}
 
 /// Energies integrated along the run \[J\].
 #[derive(Copy, Clone, Debug, Default, PartialEq)]
@@ -317,7 +323,9 @@ impl BldcPlant {
             .solve(&self.modes, &Self::currents(x), &f.map(|v| k * v))
     }
 
-    fn deriv(&self, x: &State, base: (f64, f64, f64)) -> State {
+    /// The state derivative at a state whose dynamic part (currents, speed, angle) is `x`:
+    /// nothing depends on the energy integrals, so RK4's stages carry only that part.
+    fn deriv(&self, x: &Dyn, base: (f64, f64, f64)) -> State {
         let f = emf::shape_with(&self.shape, x[THETA], emf::sin_cos_near(x[THETA], base));
         let k = self.lambda * self.pp * x[OMEGA];
         let e = [k * f.u, k * f.v, k * f.w];
@@ -334,12 +342,12 @@ impl BldcPlant {
         let s = self
             .circuit
             .solve(&self.modes, &Self::currents(x), &f.map(|v| k * v));
-        (self.assemble(x, &f, s.di.to_array(), &s.powers), s)
+        (self.assemble(&dynamic(x), &f, s.di.to_array(), &s.powers), s)
     }
 
     /// The state derivative from the network's di/dt and powers `p` at state `x`, whose
     /// back-EMF shape values are `f`: the mechanics and the energy integrals' rates.
-    fn assemble(&self, x: &State, f: &Abc<f64>, di: [f64; 3], p: &Powers) -> State {
+    fn assemble(&self, x: &Dyn, f: &Abc<f64>, di: [f64; 3], p: &Powers) -> State {
         let wm = x[OMEGA];
         let te = self.pp * self.lambda * (x[0] * f.u + x[1] * f.v + x[2] * f.w);
         let drag = self.friction * wm + self.coulomb * smooth_sign(wm * self.inv_coulomb_speed);
@@ -371,14 +379,15 @@ impl BldcPlant {
     /// One RK4 step from `x`, whose angle's sine and cosine are in `base` (the stages'
     /// angles are reached by angle addition).
     fn rk4(&self, x: &State, h: f64, base: (f64, f64, f64)) -> State {
-        self.rk4_from(x, h, base, self.deriv(x, base))
+        self.rk4_from(x, h, base, self.deriv(&dynamic(x), base))
     }
 
     /// [`BldcPlant::rk4`] with the derivative at the start, `k1`, already known.
     fn rk4_from(&self, x: &State, h: f64, base: (f64, f64, f64), k1: State) -> State {
-        let k2 = self.deriv(&(x + k1 * (0.5 * h)), base);
-        let k3 = self.deriv(&(x + k2 * (0.5 * h)), base);
-        let k4 = self.deriv(&(x + k3 * h), base);
+        let stage = |k: &State, a: f64| -> Dyn { std::array::from_fn(|j| x[j] + k[j] * a) };
+        let k2 = self.deriv(&stage(&k1, 0.5 * h), base);
+        let k3 = self.deriv(&stage(&k2, 0.5 * h), base);
+        let k4 = self.deriv(&stage(&k3, h), base);
         x + (k1 + (k2 + k3) * 2.0 + k4) * (h / 6.0)
     }
 
@@ -564,7 +573,7 @@ impl BldcPlant {
                         at = Some(x);
                         break;
                     }
-                    let slope = self.deriv(&x, b0)[k];
+                    let slope = self.deriv(&dynamic(&x), b0)[k];
                     if slope == 0.0 {
                         break;
                     }
@@ -917,7 +926,7 @@ impl BldcPlant {
                         "the network solution at the step's start is stale"
                     );
                     let f = emf::shape_with(&self.shape, x0[THETA], (b0.1, b0.2));
-                    self.assemble(&x0, &f, self.start.di.to_array(), &self.start.powers)
+                    self.assemble(&dynamic(&x0), &f, self.start.di.to_array(), &self.start.powers)
                 }
             };
             let f0 = k1;
