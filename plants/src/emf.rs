@@ -43,13 +43,28 @@ pub fn sin_cos_near(theta: f64, base: (f64, f64, f64)) -> (f64, f64) {
     (sb * cd + cb * sd, cb * cd - sb * sd)
 }
 
-/// Like [`shape`], with sin θ and cos θ already known.
-pub fn shape_with(kind: &BackEmfShape, theta: f64, (s, c): (f64, f64)) -> Abc<f64> {
-    let sin = Abc {
+/// The sinusoidal shape from sin θ and cos θ: sin θ, sin(θ − 120°), sin(θ + 120°).
+#[inline(always)]
+pub fn sinusoid((s, c): (f64, f64)) -> Abc<f64> {
+    Abc {
         u: s,
         v: -0.5 * s - SIN_120 * c,
         w: -0.5 * s + SIN_120 * c,
-    };
+    }
+}
+
+/// Like [`shape`], with sin θ and cos θ already known.
+#[inline(always)]
+pub fn shape_with(kind: &BackEmfShape, theta: f64, sc: (f64, f64)) -> Abc<f64> {
+    if let BackEmfShape::Sinusoidal = kind {
+        return sinusoid(sc);
+    }
+    shaped(kind, theta, sinusoid(sc))
+}
+
+/// The harmonic and trapezoidal shapes (out of line: the hot path is the sinusoid).
+#[inline(never)]
+fn shaped(kind: &BackEmfShape, theta: f64, sin: Abc<f64>) -> Abc<f64> {
     match *kind {
         BackEmfShape::Sinusoidal => sin,
         BackEmfShape::Harmonic { third, fifth } => sin.map(|s| {
