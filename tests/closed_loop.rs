@@ -422,13 +422,14 @@ fn anti_windup_releases_the_saturated_current_loop_at_once() {
             .filter(|d| d.0 > 2.5 && d.0 < 3.5)
             .map(|d| d.1)
             .fold(0.0, f64::max);
-        // Commanded 16 000 rpm, out of reach: just before the step the duty is mostly at
-        // ≥ 95 % (else there is nothing to release; measured 59 % of the samples with
-        // anti-windup, where the current loop still modulates, all of them without).
+        // Commanded 16 000 rpm, out of reach: just before the step the duty is often at
+        // ≥ 95 % (else there is nothing to release). With anti-windup the current loop
+        // still modulates, and how often it sits at full scale depends on the noise: 34–81 %
+        // of the samples over seeds 1–6 (measured); without, all of them.
         let before: Vec<_> = r.duty.iter().filter(|d| d.0 > 3.4 && d.0 < 3.5).collect();
         let full = before.iter().filter(|d| d.1 >= 1900).count();
         assert!(
-            !before.is_empty() && full as f64 > 0.5 * before.len() as f64,
+            !before.is_empty() && full as f64 > 0.25 * before.len() as f64,
             "aw {aw}: duty ≥ 95 % in {full} of {} samples before the step",
             before.len()
         );
@@ -484,3 +485,4 @@ fn angle_stats(name: &str, r: &Run, rpm: f64) {
     assert!(mean_abs < 3.0, "{name}: mean |error| {mean_abs:.2}°");
     assert!(max < 15.0, "{name}: max |error| {max:.2}°");
 }
+
