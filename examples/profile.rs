@@ -54,7 +54,7 @@ fn main() {
     reasons.sort();
     let report = format!(
         "{:.0} rpm, {:.1}× real time over 2–3 s\n\
-         per simulated second: {} RK4 steps, {} diode events, {} retries\n\
+         per simulated second: {} steps, {} diode events, {} retries\n\
          comparators: {} scans, {} ticks walked, {} noise segments\n\
          stops: {reasons:?}\n",
         e.plant.observe().speed_rpm,
@@ -77,8 +77,10 @@ fn steady_second(
     reasons: &mut Vec<(StopReason, u64)>,
 ) -> Result<(), bldc_drive::drive_core::EngineError> {
     let end = Ticks::from_seconds(3.0).expect("a few seconds fit in ticks");
-    e.run_until(end, |_, r| match reasons.iter_mut().find(|(q, _)| *q == r) {
-        Some((_, n)) => *n += 1,
-        None => reasons.push((r, 1)),
+    e.run_until(end, |_, r| {
+        match reasons.iter_mut().find(|(q, _)| *q == r) {
+            Some((_, n)) => *n += 1,
+            None => reasons.push((r, 1)),
+        }
     })
 }

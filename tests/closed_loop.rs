@@ -485,4 +485,3 @@ fn angle_stats(name: &str, r: &Run, rpm: f64) {
     assert!(mean_abs < 3.0, "{name}: mean |error| {mean_abs:.2}°");
     assert!(max < 15.0, "{name}: max |error| {max:.2}°");
 }
-

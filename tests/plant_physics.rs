@@ -108,11 +108,13 @@ fn energy_balance_and_torque_consistency_with_pwm() {
     assert!(e.supply > 1e-3 && e.diode > 0.0 && e.kinetic > 0.0, "{e:?}");
     let rel = (e.supply - out).abs() / e.supply;
     assert!(rel < 0.01, "energy balance off by {rel}: {e:?}");
-    // Far inside the requirement at the default 40 µs step: measured 2.5e-6.
+    // Far inside the requirement at the default 40 µs step: measured 5.9e-7 (2.5e-6 when
+    // the currents took RK4 steps too).
     assert!(rel < 1e-5, "energy balance off by {rel}: {e:?}");
     let mech = (e.airgap - (e.friction + e.load + e.kinetic)).abs() / e.airgap.abs();
-    // ½·J·ωm² is quadratic in the state, which RK4 conserves to its own accuracy only:
-    // measured 1.4e-5 of the airgap energy at the default 40 µs step.
+    // ½·J·ωm² is quadratic in the state, which the integrator conserves to its own accuracy
+    // only: measured 1.2e-7 of the airgap energy at the default 40 µs step (1.4e-5 with RK4
+    // for the currents).
     assert!(mech < 1e-4, "mechanical balance off by {mech}");
 }
 
@@ -654,9 +656,9 @@ fn a_generating_motor_rectifies_through_its_diodes_in_the_right_direction() {
         let out = e.copper + e.switch + e.diode + e.shunt + e.airgap + e.magnetic;
         let off = (e.supply - out).abs() / e.airgap.abs();
         println!("max step {max_step_s:e} s: balance off by {off:.2e} of the airgap energy");
-        // RK4's global error grows as h⁴: measured 5e-7 at 10 µs, 4e-3 at the longest step
-        // allowed (100 µs, a third of a radian of back-EMF at 8100 rpm), still inside the
-        // 1 % requirement.
+        // The integrator's global error grows as h⁴: measured 2e-7 at 10 µs, 5e-4 at the
+        // longest step allowed (100 µs, a third of a radian of back-EMF at 8100 rpm), inside
+        // the 1 % requirement (RK4 for the currents too: 5e-7 and 4e-3).
         let bound = if max_step_s <= 10e-6 { 1e-5 } else { 1e-2 };
         assert!(off < bound, "max step {max_step_s:e} s: balance {e:?}");
     }

@@ -376,6 +376,7 @@ pub struct Linearised {
 
 impl Linearised {
     /// di/dt and the powers for currents `i` and back-EMFs `e`.
+    #[inline]
     pub fn eval(&self, i: &[f64; 3], e: &[f64; 3]) -> ([f64; 3], Powers) {
         let mut di = self.c;
         for (r, d) in di.iter_mut().enumerate() {
@@ -383,6 +384,12 @@ impl Linearised {
                 *d += self.k[r][j] * i[j] + self.q[r][j] * e[j];
             }
         }
+        (di, self.powers(i, e))
+    }
+
+    /// The powers for currents `i` and back-EMFs `e`.
+    #[inline]
+    pub fn powers(&self, i: &[f64; 3], e: &[f64; 3]) -> Powers {
         let mut p = Powers::default();
         let mut i_sh = 0.0;
         for j in 0..3 {
@@ -395,7 +402,12 @@ impl Linearised {
             i_sh -= self.low[j] * x;
         }
         p.shunt = self.r_sh * i_sh * i_sh;
-        (di, p)
+        p
+    }
+
+    /// c, K and Q of di/dt = c + K·i + Q·e.
+    pub fn parts(&self) -> (&[f64; 3], &[[f64; 3]; 3], &[[f64; 3]; 3]) {
+        (&self.c, &self.k, &self.q)
     }
 }
 

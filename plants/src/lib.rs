@@ -4,6 +4,7 @@
 pub mod bldc;
 pub mod circuit;
 pub mod emf;
+pub mod modal;
 pub mod params;
 pub mod sensing;
 
