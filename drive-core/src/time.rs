@@ -20,6 +20,14 @@ fn allowance(k: f64) -> f64 {
     (k * 1e-15).max(1e-6)
 }
 
+/// `k` truncated to a tick count, through i64: the unsigned conversion is a branchy
+/// sequence on baseline x86-64, the signed one an instruction. Like `k as u64` (negative
+/// and NaN give 0) but saturating at 2^63 − 1 ticks (5800 years): the plant's instants are
+/// far below.
+fn to_count(k: f64) -> u64 {
+    (k as i64).max(0) as u64
+}
+
 /// An instant or a duration counted in master ticks (20 ns).
 #[derive(
     Copy, Clone, Debug, Default, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize,
@@ -35,7 +43,7 @@ impl Ticks {
 
     /// This instant in seconds.
     pub fn seconds(self) -> f64 {
-        self.0 as f64 * TICK_S
+        self.count_f64() * TICK_S
     }
 
     /// The number of whole ticks nearest to `seconds`, or `None` if negative, non-finite or
@@ -51,22 +59,35 @@ impl Ticks {
     /// x86-64; the plant converts several times per step.
     pub fn at_or_before(seconds: f64) -> Ticks {
         let k = seconds * PER_S;
-        Ticks((k + allowance(k)) as u64)
+        Ticks(to_count(k + allowance(k)))
     }
 
     /// The first tick at or after the instant `seconds` (≥ 0), and whether `seconds` is that
     /// tick (within rounding either way).
     pub fn at_or_after(seconds: f64) -> (Ticks, bool) {
         let k = seconds * PER_S;
-        let near = (k + 0.5) as u64; // the nearest tick, for k ≥ 0
-        if (k - near as f64).abs() < allowance(k) {
+        let near = to_count(k + 0.5); // the nearest tick, for k ≥ 0
+        if (k - Ticks(near).count_f64()).abs() < allowance(k) {
             return (Ticks(near), true);
         }
-        let below = k as u64;
+        let below = to_count(k);
         (
-            Ticks(if (below as f64) < k { below + 1 } else { below }),
+            Ticks(if Ticks(below).count_f64() < k {
+                below + 1
+            } else {
+                below
+            }),
             false,
         )
+    }
+
+    /// The count as f64, through i64 where it fits: baseline x86-64 converts signed
+    /// integers in one instruction, unsigned ones in a branchy sequence.
+    fn count_f64(self) -> f64 {
+        match i64::try_from(self.0) {
+            Ok(k) => k as f64,
+            Err(_) => self.0 as f64,
+        }
     }
 
     /// The first instant `>= self` that is a whole multiple of `period` (a clock edge).
@@ -124,6 +145,39 @@ pub mod clocks {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn conversions_through_i64_match_the_unsigned_ones() {
+        for k in [
+            -1e300,
+            -3.5,
+            -0.5,
+            -0.0,
+            0.0,
+            0.4,
+            0.6,
+            1.0,
+            2.5e9,
+            9.2e18,
+            f64::NEG_INFINITY,
+            f64::NAN,
+        ] {
+            assert_eq!(to_count(k), k as u64, "{k}");
+        }
+        for k in [9.3e18, 2e19, f64::INFINITY] {
+            assert_eq!(to_count(k), i64::MAX as u64, "{k}");
+        }
+        for t in [
+            0,
+            1,
+            1 << 40,
+            i64::MAX as u64,
+            i64::MAX as u64 + 1,
+            u64::MAX,
+        ] {
+            assert_eq!(Ticks(t).count_f64(), t as f64, "{t}");
+        }
+    }
 
     #[test]
     fn instants_to_ticks_match_floor_and_ceil_with_the_rounding_allowance() {
