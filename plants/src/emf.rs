@@ -17,6 +17,9 @@ pub fn shape(kind: &BackEmfShape, theta: f64) -> Abc<f64> {
 pub fn sin_cos_near(theta: f64, base: (f64, f64, f64)) -> (f64, f64) {
     let (b, sb, cb) = base;
     let d = theta - b;
+    if d == 0.0 {
+        return (sb, cb); // a step's own start: common, and exact
+    }
     if d.abs() > 0.5 {
         return theta.sin_cos();
     }
