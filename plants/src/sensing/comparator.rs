@@ -182,6 +182,8 @@ pub struct ComparatorBank {
     pow_p: TickPowers,
     pow_n: TickPowers,
     pow_ring: TickPowers,
+    /// Powers of the per-tick decay of the ringing's envelope.
+    pow_env: TickPowers,
     y: Abc<f64>,
     y_n: f64,
     out: Abc<bool>,
@@ -237,6 +239,7 @@ impl ComparatorBank {
                 -1.0 / p.ring_decay_s,
                 std::f64::consts::TAU * p.ring_frequency_hz,
             ),
+            pow_env: TickPowers::new(-1.0 / p.ring_decay_s, 0.0),
             q_seg_m1: {
                 let n = (p.noise_interval().0 - 1) as f64 * TICK_S;
                 (
@@ -347,11 +350,16 @@ impl ComparatorBank {
         (c.base.0 * self.pow_p.real(n), c.base.1 * self.pow_n.real(n))
     }
 
+    /// The ringing's envelope at instant `t` (not before the excitation): by table where
+    /// `t` is a tick, as the engine's instants mostly are.
     fn ring_envelope(&self, t: f64) -> f64 {
         if self.ring_mag == 0.0 {
             return 0.0;
         }
-        self.ring_mag * (-(t - self.ring_t) / self.ring_decay).exp()
+        match Ticks::at_or_after(t) {
+            (k, true) if k.0 >= self.ring_k => self.ring_mag * self.pow_env.real(k.0 - self.ring_k),
+            _ => self.ring_mag * (-(t - self.ring_t) / self.ring_decay).exp(),
+        }
     }
 
     /// Advances the filters over [t0, t1] with terminal/neutral voltages varying linearly
@@ -386,9 +394,13 @@ impl ComparatorBank {
         let fn_ = Foh::ramp(self.y_n, vn0, (vn1 - vn0) * inv_h, self.tau_n);
         let k_start = Ticks::at_or_before(t0).0 + 1;
         let k_end = Ticks::at_or_before(t1).0;
-        // Steps repeat their lengths (PWM half-periods, the solver's longest step): cache.
+        // Steps repeat their lengths (PWM half-periods, the solver's longest step): cache;
+        // a length of whole ticks (most are) by table.
         if self.decay_cache.0 != h {
-            self.decay_cache = (h, (-h / self.tau_p).exp(), (-h / self.tau_n).exp());
+            self.decay_cache = match Ticks::at_or_after(h) {
+                (n, true) => (h, self.pow_p.real(n.0), self.pow_n.real(n.0)),
+                _ => (h, (-h / self.tau_p).exp(), (-h / self.tau_n).exp()),
+            };
         }
         let (_, eh_p, eh_n) = self.decay_cache;
         let w = [1.0, 1.0, eh_p, eh_n];
