@@ -415,8 +415,8 @@ impl BldcPlant {
         let w2 = w0 + 0.5 * h * k1[OMEGA];
         let omega_e = self.pp * w2;
         let i0 = [x[0], x[1], x[2]];
-        // The back-EMF follows the speed through the step: amplitude λr·(ωm0 + α·t), and
-        // the angle leads φ0 + Ω·t by (P/2)·α·(t² − h·t).
+        // The back-EMF follows the speed through the step: amplitude λr·(ωm0 + α·t +
+        // α′·t²/2), and the angle leads φ0 + Ω·t by pp·α·(t² − h·t)/2.
         let a = k1[OMEGA];
         let sc0 = emf::sin_cos_near(th0, base);
         let forcing = Forcing {
@@ -465,8 +465,9 @@ impl BldcPlant {
         x1
     }
 
-    /// dα/dt [rad/s³] at state `x` (angle's sine and cosine given) with derivative `k1`: the torque's rate of change
-    /// (currents and angle moving) less the viscous friction's, over J; zero when locked.
+    /// dα/dt [rad/s³] at state `x` (its angle's sine and cosine given) with derivative
+    /// `k1`: the torque's rate of change (currents and angle moving) less the viscous
+    /// friction's, over J; zero when locked.
     fn jerk(&self, x: &State, k1: &State, (s, c): (f64, f64)) -> f64 {
         if self.speed_lock {
             return 0.0;
@@ -908,8 +909,8 @@ impl BldcPlant {
     }
 
     /// The state at the present time: inside a lookahead step, a step of its own from the
-    /// lookahead's start (not an interpolant), so what is observed is the solution to integrator
-    /// accuracy and the energy integrals stay consistent with the currents.
+    /// lookahead's start (not an interpolant), so what is observed is the solution to
+    /// integrator accuracy and the energy integrals stay consistent with the currents.
     fn state(&self) -> State {
         match &self.lookahead {
             Some(la) => {

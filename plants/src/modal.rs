@@ -15,8 +15,8 @@
 //!
 //! with z_c = −a/λ, P = (Ω·wc − λ·ws)/(λ² + Ω²) and R = −(λ·wc + Ω·ws)/(λ² + Ω²). The
 //! sinusoidal back-EMF is e = λr·ωm·(sin φ, sin(φ − 120°), sin(φ + 120°)), so ws and wc are
-//! λr·ωm times this state's weights `gs`, `gc`; [`Response`] also lets the amplitude follow
-//! the speed linearly through the step (P and R then gain a term in t).
+//! λr·ωm times this state's weights `gs`, `gc`. Within a step the speed changes a little;
+//! [`Response`] follows that to first order, with P and R polynomials in t.
 
 use crate::circuit::{Conduction, Linearised};
 use drive_core::Abc;
@@ -144,13 +144,13 @@ fn dot(a: &[f64; 3], b: &[f64; 3]) -> f64 {
 /// φ0 (sine and cosine given), exact for a back-EMF whose forcing of each mode is
 /// `(ws0 + ws1·t + ws2·t²)·sin φ + (wc0 + wc1·t + wc2·t²)·cos φ` with φ = φ0 + Ω·t.
 ///
-/// Within a step the speed changes: ωm(t) ≈ ωm0 + α·t + α′·t²/2, where α′ follows the torque,
-/// which follows the currents (on this light rotor α′ reaches 1e7 rad/s³ while a current
-/// rises). The amplitude λr·ωm(t) is then quadratic in t, and the true angle runs ahead of
-/// the linear φ by δ(t) = (P/2)·α·(t² − h·t) when Ω is the mid-step speed. To first order
-/// in δ (below 1e-5 rad), the back-EMF λr·ωm(t)·f(φ + δ) is such a forcing (see
-/// [`Forcing`]). Holding the speed constant instead errs by ≈ λr·α′·h³/(6L) per step,
-/// 5e-7 A at h = 40 µs: more than RK4's.
+/// Within a step the speed changes: ωm(t) ≈ ωm0 + α·t + α′·t²/2, where α′ follows the
+/// torque, which follows the currents (on this light rotor α′ reaches 1e7 rad/s³ while a
+/// current rises). The amplitude λr·ωm(t) is then quadratic in t, and the true angle runs
+/// ahead of the linear φ by δ(t) = pp·α·(t² − h·t)/2 (pp pole pairs) when Ω is the
+/// mid-step electrical speed. To first order in δ (below 1e-5 rad), the back-EMF
+/// λr·ωm(t)·f(φ + δ) is such a forcing (see [`Forcing`]). Holding the speed constant
+/// instead errs by ≈ λr·α′·h³/(6L) per step, 5e-7 A at h = 40 µs: more than RK4's.
 #[derive(Copy, Clone, Debug)]
 pub struct Response {
     /// The part of i0 outside the modes (rounding-size; carried unchanged, as by RK4).
