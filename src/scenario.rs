@@ -336,7 +336,7 @@ pub fn run(sc: &Scenario, mut on_row: impl FnMut(&TraceRow)) -> Result<Outcome, 
             let t = e.plant.time_s();
             let s = e.controller.status();
             let (recorded, steady) = (t >= next_record, t >= steady_from);
-            // Observing inside an integrated step costs an RK4 step: only when recorded.
+            // Observing inside an integrated step costs a step of its own: only when recorded.
             if recorded || steady {
                 let o = e.plant.observe();
                 if recorded {

@@ -618,7 +618,7 @@ fn a_speed_locked_rotor_balances_through_the_dynamometer() {
         "{e:?}"
     );
     let out = e.copper + e.switch + e.diode + e.shunt + e.airgap + e.magnetic;
-    // 1 % is the requirement; RK4's own error at 2000 rpm is a few parts per million.
+    // 1 % is the requirement; the integrator's own error at 2000 rpm is far smaller.
     assert!((e.supply - out).abs() / e.supply.abs() < 1e-4, "{e:?}");
 }
 

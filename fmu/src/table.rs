@@ -292,7 +292,7 @@ pub(crate) fn build_table() -> Vec<Variable> {
         },
         // Solver.
         real!("solver.max_step_s", solver.max_step_s, "s", Some(0.1e-6), Some(100e-6),
-            "Longest RK4 step of the plant between events"),
+            "Longest step of the plant between events"),
         // Control.
         real!("control.speed_kp", control.speed_kp, "A/rpm", z, None, "Speed PI proportional gain"),
         real!("control.speed_ki", control.speed_ki, "A/rpm", z, None,
