@@ -185,6 +185,9 @@ pub struct BldcPlant {
     modal: bool,
     /// The step integrated ahead of `t`, if any.
     lookahead: Option<Lookahead>,
+    /// An angle near the present one, with its sine and cosine: the last step's start, from
+    /// which the angle now is reached by angle addition (any consistent triple is valid).
+    base_hint: (f64, f64, f64),
     /// The derivative at the committed state, while the dynamics stay as they were.
     fsal: Option<(State, State)>,
     /// Latest clock edge reported as a sensing stop: changes up to it have been sampled.
@@ -240,6 +243,7 @@ impl BldcPlant {
             modal: matches!(m.back_emf, BackEmfShape::Sinusoidal),
             reported: Ticks::ZERO,
             lookahead: None,
+            base_hint: (0.0, 0.0, 1.0),
             fsal: None,
             stats: PlantStats::default(),
             params,
@@ -304,7 +308,8 @@ impl BldcPlant {
     }
 
     fn emf_of(&self, x: &State) -> (Abc<f64>, Abc<f64>) {
-        let f = emf::shape(&self.shape, x[THETA]);
+        let sc = emf::sin_cos_near(x[THETA], self.base_hint);
+        let f = emf::shape_with(&self.shape, x[THETA], sc);
         let k = self.lambda * self.pp * x[OMEGA];
         (f, f.map(|v| k * v))
     }
@@ -1036,6 +1041,7 @@ impl BldcPlant {
             }
             let x0 = self.x;
             let b0 = Self::base(&x0);
+            self.base_hint = b0;
             // First same as last: the derivative at the end of the previous step, when
             // nothing has changed the dynamics since.
             let k1 = match self.fsal.take() {
