@@ -471,8 +471,8 @@ impl BldcPlant {
     }
 
     /// dα/dt [rad/s³] at state `x` (its angle's sine and cosine given) with derivative
-    /// `k1`: the torque's rate of change (currents and angle moving) less the viscous
-    /// friction's, over J; zero when locked.
+    /// `k1`: the torque's rate of change (currents and angle moving) less the friction's,
+    /// over J; zero when locked.
     fn jerk(&self, x: &State, k1: &State, (s, c): (f64, f64)) -> f64 {
         if self.speed_lock {
             return 0.0;
@@ -487,7 +487,10 @@ impl BldcPlant {
                 + k1[1] * f.v
                 + k1[2] * f.w
                 + we * (x[0] * fp.u + x[1] * fp.v + x[2] * fp.w));
-        (dte - self.friction * k1[OMEGA]) * self.inv_inertia
+        // d(drag)/dωm: viscous, and the Coulomb term's tanh′ = 1 − tanh².
+        let th = smooth_sign(x[OMEGA] * self.inv_coulomb_speed);
+        let ddrag = self.friction + self.coulomb * (1.0 - th * th) * self.inv_coulomb_speed;
+        (dte - ddrag * k1[OMEGA]) * self.inv_inertia
     }
 
     /// The energy integrals' rates and dωm/dt at speed `wm`, torque `te` and electrical
@@ -1185,10 +1188,10 @@ mod tests {
         x
     }
 
-    /// A plant at 3000 rpm with u switched high, v low and w off, the currents `i`.
-    fn driven(i: [f64; 3], lock: bool) -> BldcPlant {
+    /// A plant at `rpm` with u switched high, v low and w off, the currents `i`.
+    fn driven(i: [f64; 3], rpm: f64, lock: bool) -> BldcPlant {
         let mut pl = BldcPlant::new(PlantParams::default()).expect("defaults are valid");
-        pl.set_rotor(0.3, 3000.0, lock);
+        pl.set_rotor(0.3, rpm, lock);
         pl.gates = Gates {
             high: Abc::from_fn(|p| p == Phase::U),
             low: Abc::from_fn(|p| p == Phase::V),
@@ -1203,49 +1206,42 @@ mod tests {
     /// The modal step against RK4 with 2000 sub-steps, over the longest default step.
     /// Locked speed: the currents are exact (rounding only). Free rotor, 0.3 A rising: the
     /// rotor accelerates at ≈ 1000 rad/s², and the torque changes that at ≈ 1e7 rad/s³;
-    /// the modal step follows both to first order (measured 9e-9 A and 5e-8 rad/s with two
-    /// phases conducting, 5.4e-8 A with three; one RK4 step errs by 1.6e-7 and 2.9e-7 A,
-    /// 4e-7 rad/s). Two phases conducting (one mode) and three (two modes, w freewheeling
-    /// and staying on).
+    /// the modal step follows both to first order (measured at 3000 rpm: 9e-9 A and 5e-8
+    /// rad/s with two phases conducting, 5.4e-8 A with three; one RK4 step errs by 1.6e-7
+    /// and 2.9e-7 A, 4e-7 rad/s). Two phases conducting (one mode) and three (two modes, w
+    /// freewheeling and staying on); forwards, backwards and from standstill.
     #[test]
     fn the_modal_step_matches_a_fine_rk4_solution() {
         let h = 40e-6;
+        let err = |a: &State, b: &State| (0..3).fold(0.0f64, |m, k| m.max((a[k] - b[k]).abs()));
         for i in [[0.3, -0.3, 0.0], [0.1, -0.5, 0.4]] {
-            for lock in [true, false] {
-                let pl = driven(i, lock);
-                let n_on = pl.modes.to_array().iter().filter(|m| m.conducts()).count();
-                assert_eq!(n_on, if i[2] == 0.0 { 2 } else { 3 }, "{:?}", pl.modes);
-                let md = pl.forms[pl.lin].1.expect("a modal form");
-                let x0 = pl.x;
-                let b = BldcPlant::base(&x0);
-                let k1 = pl.deriv(&dynamic(&x0), b);
-                let got = pl.flow_from(&md, &x0, h, b, k1);
-                let want = fine(&pl, &x0, h, 2000);
-                let err =
-                    |a: &State, b: &State| (0..3).fold(0.0f64, |m, k| m.max((a[k] - b[k]).abs()));
-                let (di, dw) = (err(&got, &want), (got[OMEGA] - want[OMEGA]).abs());
-                let (bi, bw) = if lock { (1e-13, 0.0) } else { (1e-7, 2e-7) };
-                assert!(
-                    di <= bi && dw <= bw,
-                    "{i:?} lock {lock}: {di:e} A, {dw:e} rad/s"
-                );
-                if !lock {
-                    // Fourth order: half the step, a sixteenth of the error (third order,
-                    // as without the torque's rate of change, would give an eighth).
-                    let half = pl.flow_from(&md, &x0, h / 2.0, b, k1);
-                    let e2 = err(&half, &fine(&pl, &x0, h / 2.0, 2000));
-                    assert!(e2 < di / 12.0, "{i:?}: {di:e} A, then {e2:e} A at h/2");
-                }
-                assert!((got[THETA] - want[THETA]).abs() < 1e-9);
-                // Energy integrals: Simpson's rule on exact currents.
-                for k in E_SUPPLY..N {
-                    assert!(
-                        (got[k] - want[k]).abs() < 1e-9,
-                        "energy {k}: {} vs {}, i_end {:?}",
-                        got[k],
-                        want[k],
-                        &want.as_slice()[..3]
-                    );
+            for rpm in [3000.0, -3000.0, 0.0] {
+                for lock in [true, false] {
+                    let case = format!("{i:?} at {rpm} rpm, lock {lock}");
+                    let pl = driven(i, rpm, lock);
+                    let n_on = pl.modes.to_array().iter().filter(|m| m.conducts()).count();
+                    assert_eq!(n_on, if i[2] == 0.0 { 2 } else { 3 }, "{case}");
+                    let md = pl.forms[pl.lin].1.expect("a modal form");
+                    let x0 = pl.x;
+                    let b = BldcPlant::base(&x0);
+                    let k1 = pl.deriv(&dynamic(&x0), b);
+                    let got = pl.flow_from(&md, &x0, h, b, k1);
+                    let want = fine(&pl, &x0, h, 2000);
+                    let (di, dw) = (err(&got, &want), (got[OMEGA] - want[OMEGA]).abs());
+                    let (bi, bw) = if lock { (1e-13, 0.0) } else { (1e-7, 2e-7) };
+                    assert!(di <= bi && dw <= bw, "{case}: {di:e} A, {dw:e} rad/s");
+                    if !lock {
+                        // Fourth order: half the step, a sixteenth of the error (third
+                        // order, as without the torque's rate of change, an eighth).
+                        let half = pl.flow_from(&md, &x0, h / 2.0, b, k1);
+                        let e2 = err(&half, &fine(&pl, &x0, h / 2.0, 2000));
+                        assert!(e2 < di / 12.0, "{case}: {di:e} A, then {e2:e} A at h/2");
+                    }
+                    assert!((got[THETA] - want[THETA]).abs() < 1e-9, "{case}");
+                    // Energy integrals: Simpson's rule on exact currents.
+                    for k in E_SUPPLY..N {
+                        assert!((got[k] - want[k]).abs() < 1e-9, "{case}: energy {k}");
+                    }
                 }
             }
         }

@@ -206,17 +206,18 @@ impl Response {
                 rsp.perp[i] -= z0 * md.w[j][i];
             }
             // f(φ + δ) ≈ f(φ) + δ·f′(φ): sin φ·(a − δ·b) + cos φ·(b + δ·a) where f = a·sin φ +
-            // b·cos φ; terms of order α² dropped.
+            // b·cos φ, times the amplitude; terms beyond t² dropped.
             let (gs, gc) = (md.gs[j], md.gc[j]);
+            let d2 = f.amp * f.d2 + f.slope * f.d1; // δ's weight on t², amplitude included
             let ws = [
                 f.amp * gs,
                 f.slope * gs - f.amp * f.d1 * gc,
-                f.quad * gs - f.amp * f.d2 * gc,
+                f.quad * gs - d2 * gc,
             ];
             let wc = [
                 f.amp * gc,
                 f.slope * gc + f.amp * f.d1 * gs,
-                f.quad * gc + f.amp * f.d2 * gs,
+                f.quad * gc + d2 * gs,
             ];
             // (λ, Ω; −Ω, λ)·(P_k, R_k) = ((k+1)·P_{k+1} − ws_k, (k+1)·R_{k+1} − wc_k).
             let l = md.lambda[j];
