@@ -23,7 +23,7 @@ use crate::sensing::{ComparatorBank, CurrentSense};
 use drive_core::{Abc, Gates, ParamError, Phase, Plant, PlantStop, Sensed, Ticks, Watch};
 use nalgebra::SVector;
 use std::f64::consts::TAU;
-use std::sync::Arc;
+use std::sync::{Arc, OnceLock};
 
 const N: usize = 14;
 type State = SVector<f64, N>;
@@ -176,9 +176,9 @@ pub struct BldcPlant {
     same_instant_events: u32,
     /// Phases whose events are ignored for one step (see `finish_step`).
     muted: [bool; 3],
-    /// The network's affine and modal forms for all 125 conduction states (built once,
-    /// shared by clones), and the index of the present one.
-    forms: Arc<[(Linearised, Option<Modal>)]>,
+    /// The network's affine and modal forms for the 125 conduction states (each built when
+    /// first entered, shared by clones), and the index of the present one.
+    forms: Arc<[OnceLock<Form>]>,
     lin: usize,
     /// Whether steps use the modal forms' exact currents (sinusoidal back-EMF) where
     /// they exist, rather than RK4.
@@ -238,7 +238,7 @@ impl BldcPlant {
             cur,
             same_instant_events: 0,
             muted: [false; 3],
-            forms: all_forms(&circuit),
+            forms: (0..125).map(|_| OnceLock::new()).collect(),
             lin: lin_index(&modes),
             modal: matches!(m.back_emf, BackEmfShape::Sinusoidal),
             reported: Ticks::ZERO,
@@ -338,13 +338,19 @@ impl BldcPlant {
             .solve(&self.modes, &Self::currents(x), &f.map(|v| k * v))
     }
 
+    /// The present conduction state's forms, built on first use: a plant visits a handful
+    /// of the 125, and building all would cost as much as milliseconds of simulation.
+    fn form(&self) -> &Form {
+        self.forms[self.lin].get_or_init(|| form_at(&self.circuit, self.lin))
+    }
+
     /// The state derivative at a state whose dynamic part (currents, speed, angle) is `x`:
     /// nothing depends on the energy integrals, so RK4's stages carry only that part.
     fn deriv(&self, x: &Dyn, base: (f64, f64, f64)) -> State {
         let f = emf::shape_with(&self.shape, x[THETA], emf::sin_cos_near(x[THETA], base));
         let k = self.lambda * self.pp * x[OMEGA];
         let e = [k * f.u, k * f.v, k * f.w];
-        let (di, p) = self.forms[self.lin].0.eval(&[x[0], x[1], x[2]], &e);
+        let (di, p) = self.form().0.eval(&[x[0], x[1], x[2]], &e);
         self.assemble(x, &f, di, &p)
     }
 
@@ -404,7 +410,7 @@ impl BldcPlant {
     /// [`BldcPlant::integrate`] with the derivative at the start, `k1`, already known: the
     /// modal form's exact currents where there is one (sinusoidal back-EMF), else RK4.
     fn integrate_from(&self, x: &State, h: f64, base: (f64, f64, f64), k1: State) -> State {
-        match &self.forms[self.lin].1 {
+        match &self.form().1 {
             Some(md) if self.modal => self.flow_from(md, x, h, base, k1),
             _ => self.rk4_from(x, h, base, k1),
         }
@@ -450,7 +456,7 @@ impl BldcPlant {
             torque(&i_e, emf::sinusoid(sc_e)),
         );
         // The electrical powers do not depend on the speed; the airgap power is Te·ωm.
-        let lin = &self.forms[self.lin].0;
+        let lin = &self.form().0;
         let (p_m, p_e) = (lin.powers(&i_m, &[0.0; 3]), lin.powers(&i_e, &[0.0; 3]));
         let (r2, a2) = self.stage_rates(&p_m, te_m, w2);
         let w3 = w0 + 0.5 * h * a2;
@@ -1142,10 +1148,11 @@ fn lin_index(modes: &Abc<Conduction>) -> usize {
     m.u * 25 + m.v * 5 + m.w
 }
 
-/// The network's affine and modal forms for every conduction state, indexed by
-/// [`lin_index`]: built up front (875 network solutions) so that a topology change copies
-/// an index, not a form.
-fn all_forms(circuit: &Circuit) -> Arc<[(Linearised, Option<Modal>)]> {
+/// The network's affine and modal forms for one conduction state.
+type Form = (Linearised, Option<Modal>);
+
+/// The forms of the conduction state at index `k` (see [`lin_index`]).
+fn form_at(circuit: &Circuit, k: usize) -> Form {
     const ALL: [Conduction; 5] = [
         Conduction::SwitchHigh,
         Conduction::SwitchLow,
@@ -1153,19 +1160,14 @@ fn all_forms(circuit: &Circuit) -> Arc<[(Linearised, Option<Modal>)]> {
         Conduction::DiodeLow,
         Conduction::Open,
     ];
-    let forms: Arc<[(Linearised, Option<Modal>)]> = (0..125)
-        .map(|k| {
-            let modes = Abc {
-                u: ALL[k / 25],
-                v: ALL[k / 5 % 5],
-                w: ALL[k % 5],
-            };
-            debug_assert_eq!(lin_index(&modes), k);
-            let lin = circuit.linearise(&modes);
-            (lin, Modal::new(&modes, &lin))
-        })
-        .collect();
-    forms
+    let modes = Abc {
+        u: ALL[k / 25 % 5],
+        v: ALL[k / 5 % 5],
+        w: ALL[k % 5],
+    };
+    debug_assert_eq!(lin_index(&modes), k);
+    let lin = circuit.linearise(&modes);
+    (lin, Modal::new(&modes, &lin))
 }
 
 /// tanh(x), the smooth sign of the Coulomb friction: ±1 without the call beyond |x| = 20,
@@ -1221,7 +1223,7 @@ mod tests {
                     let pl = driven(i, rpm, lock);
                     let n_on = pl.modes.to_array().iter().filter(|m| m.conducts()).count();
                     assert_eq!(n_on, if i[2] == 0.0 { 2 } else { 3 }, "{case}");
-                    let md = pl.forms[pl.lin].1.expect("a modal form");
+                    let md = pl.form().1.expect("a modal form");
                     let x0 = pl.x;
                     let b = BldcPlant::base(&x0);
                     let k1 = pl.deriv(&dynamic(&x0), b);

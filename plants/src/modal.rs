@@ -44,24 +44,34 @@ pub struct Modal {
 impl Modal {
     /// The modal form of conduction state `modes` with affine form `lin`, or `None` where
     /// the decomposition does not check out (then the caller integrates numerically).
+    /// Allocates nothing: forms are built when a drive first enters a conduction state.
     pub fn new(modes: &Abc<Conduction>, lin: &Linearised) -> Option<Modal> {
-        let on: Vec<usize> = (0..3).filter(|&k| modes.to_array()[k].conducts()).collect();
+        let m_arr = modes.to_array();
+        let mut on = [0usize; 3];
+        let mut n_on = 0;
+        for (k, m) in m_arr.iter().enumerate() {
+            if m.conducts() {
+                on[n_on] = k;
+                n_on += 1;
+            }
+        }
         let (c, k, q) = lin.parts();
-        let basis: Vec<[f64; 3]> = match on.len() {
+        // An orthonormal basis of the subspace the currents stay in.
+        let (basis, m) = match n_on {
             0 | 1 => return Some(Modal::default()),
             2 => {
                 let mut u = [0.0; 3];
                 u[on[0]] = std::f64::consts::FRAC_1_SQRT_2;
                 u[on[1]] = -std::f64::consts::FRAC_1_SQRT_2;
-                vec![u]
+                ([u, [0.0; 3]], 1)
             }
             _ => {
                 let (a, b) = (1.0 / 2f64.sqrt(), 1.0 / 6f64.sqrt());
-                vec![[a, -a, 0.0], [b, b, -2.0 * b]]
+                ([[a, -a, 0.0], [b, b, -2.0 * b]], 2)
             }
         };
         let kx = |v: &[f64; 3]| -> [f64; 3] { std::array::from_fn(|r| dot(&k[r], v)) };
-        let (w, lambda) = if basis.len() == 1 {
+        let (w, lambda) = if m == 1 {
             let u = basis[0];
             ([u, [0.0; 3]], [dot(&u, &kx(&u)), 0.0])
         } else {
@@ -84,7 +94,6 @@ impl Modal {
             let w2: [f64; 3] = std::array::from_fn(|i| -s * u1[i] + co * u2[i]);
             ([w1, w2], [dot(&w1, &kx(&w1)), dot(&w2, &kx(&w2))])
         };
-        let m = basis.len();
         let scale = lambda[..m].iter().fold(0.0f64, |x, l| x.max(l.abs()));
         for j in 0..m {
             // An eigenpair with a decaying mode, or no modal form.
