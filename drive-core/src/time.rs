@@ -147,7 +147,7 @@ mod tests {
     use super::*;
 
     #[test]
-    fn conversions_through_i64_match_the_unsigned_ones() {
+    fn conversions_through_i64_match_the_unsigned_ones_below_2_pow_63() {
         for k in [
             -1e300,
             -3.5,
