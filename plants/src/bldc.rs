@@ -15,7 +15,7 @@
 //! diode's current reaching zero (the current is then set to exactly zero and the phase
 //! floats), and an open terminal reaching a diode clamp (the diode starts conducting).
 
-use crate::circuit::{Circuit, Conduction, Linearised, Powers, Solution};
+use crate::circuit::{self, Circuit, Conduction, Linearised, Powers, Solution};
 use crate::emf;
 use crate::modal::{Forcing, Modal, Response};
 use crate::params::{BackEmfShape, PlantParams};
@@ -239,7 +239,7 @@ impl BldcPlant {
             same_instant_events: 0,
             muted: [false; 3],
             forms: (0..125).map(|_| OnceLock::new()).collect(),
-            lin: lin_index(&modes),
+            lin: circuit::state_index(&modes),
             modal: matches!(m.back_emf, BackEmfShape::Sinusoidal),
             reported: Ticks::ZERO,
             lookahead: None,
@@ -782,7 +782,7 @@ impl BldcPlant {
             at_clamp,
             keep_open,
         );
-        self.lin = lin_index(&self.modes);
+        self.lin = circuit::state_index(&self.modes);
     }
 
     /// The clock edge (not before `now`) at which the first watched change not yet reported
@@ -1142,30 +1142,12 @@ impl BldcPlant {
     }
 }
 
-/// Where the affine form of conduction state `modes` sits among all 125.
-fn lin_index(modes: &Abc<Conduction>) -> usize {
-    let m = modes.map(|c| c as usize);
-    m.u * 25 + m.v * 5 + m.w
-}
-
 /// The network's affine and modal forms for one conduction state.
 type Form = (Linearised, Option<Modal>);
 
-/// The forms of the conduction state at index `k` (see [`lin_index`]).
+/// The forms of the conduction state at index `k` (see [`circuit::state_index`]).
 fn form_at(circuit: &Circuit, k: usize) -> Form {
-    const ALL: [Conduction; 5] = [
-        Conduction::SwitchHigh,
-        Conduction::SwitchLow,
-        Conduction::DiodeHigh,
-        Conduction::DiodeLow,
-        Conduction::Open,
-    ];
-    let modes = Abc {
-        u: ALL[k / 25 % 5],
-        v: ALL[k / 5 % 5],
-        w: ALL[k % 5],
-    };
-    debug_assert_eq!(lin_index(&modes), k);
+    let modes = circuit::state_at(k);
     let lin = circuit.linearise(&modes);
     (lin, Modal::new(&modes, &lin))
 }

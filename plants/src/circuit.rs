@@ -61,6 +61,28 @@ impl Conduction {
     }
 }
 
+/// The index, 0..125, of the legs' conduction states `modes` (base 5, u first).
+pub fn state_index(modes: &Abc<Conduction>) -> usize {
+    let m = modes.map(|c| c as usize);
+    m.u * 25 + m.v * 5 + m.w
+}
+
+/// The legs' conduction states at index `k` (see [`state_index`]).
+pub fn state_at(k: usize) -> Abc<Conduction> {
+    const ALL: [Conduction; 5] = [
+        Conduction::SwitchHigh,
+        Conduction::SwitchLow,
+        Conduction::DiodeHigh,
+        Conduction::DiodeLow,
+        Conduction::Open,
+    ];
+    Abc {
+        u: ALL[k / 25 % 5],
+        v: ALL[k / 5 % 5],
+        w: ALL[k % 5],
+    }
+}
+
 /// Instantaneous powers \[W\] (for the energy ledger).
 #[derive(Copy, Clone, Debug, Default, PartialEq)]
 pub struct Powers {
@@ -465,6 +487,13 @@ mod tests {
 
     fn circuit() -> Circuit {
         Circuit::new(&MotorParams::default(), &PowerStageParams::default())
+    }
+
+    #[test]
+    fn state_indices_round_trip() {
+        for k in 0..125 {
+            assert_eq!(state_index(&state_at(k)), k);
+        }
     }
 
     #[test]

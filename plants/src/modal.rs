@@ -274,14 +274,6 @@ mod tests {
     use crate::circuit::Circuit;
     use crate::params::{MotorParams, PowerStageParams};
 
-    const ALL: [Conduction; 5] = [
-        Conduction::SwitchHigh,
-        Conduction::SwitchLow,
-        Conduction::DiodeHigh,
-        Conduction::DiodeLow,
-        Conduction::Open,
-    ];
-
     /// Every conduction state of the default drive has a modal form (else its steps would
     /// quietly fall back to RK4): orthonormal eigenvectors of K with decaying eigenvalues,
     /// as many as conducting phases less one.
@@ -289,11 +281,7 @@ mod tests {
     fn every_conduction_state_has_a_modal_form() {
         let c = Circuit::new(&MotorParams::default(), &PowerStageParams::default());
         for k in 0..125 {
-            let modes = Abc {
-                u: ALL[k / 25],
-                v: ALL[k / 5 % 5],
-                w: ALL[k % 5],
-            };
+            let modes = crate::circuit::state_at(k);
             let lin = c.linearise(&modes);
             let md = Modal::new(&modes, &lin).unwrap_or_else(|| panic!("{modes:?}"));
             let on = modes.to_array().iter().filter(|m| m.conducts()).count();
