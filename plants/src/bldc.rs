@@ -374,29 +374,22 @@ impl BldcPlant {
     fn assemble(&self, x: &Dyn, f: &Abc<f64>, di: [f64; 3], p: &Powers) -> State {
         let wm = x[OMEGA];
         let te = self.pp * self.lambda * (x[0] * f.u + x[1] * f.v + x[2] * f.w);
-        let drag = self.friction * wm + self.coulomb * smooth_sign(wm * self.inv_coulomb_speed);
-        let net = te - drag - self.load_nm;
-        // A locked rotor is held by a dynamometer, which absorbs the net torque.
-        let (dw, p_dyno) = if self.speed_lock {
-            (0.0, net * wm)
-        } else {
-            (net * self.inv_inertia, 0.0)
-        };
+        let (r, dw) = self.stage_rates(p, te, wm, p.airgap);
         State::from([
             di[0],
             di[1],
             di[2],
             dw,
             self.pp * wm,
-            p.supply,
-            p.copper,
-            p.switch,
-            p.diode,
-            p.shunt,
-            drag * wm,
-            self.load_nm * wm,
-            p.airgap,
-            p_dyno,
+            r[0],
+            r[1],
+            r[2],
+            r[3],
+            r[4],
+            r[5],
+            r[6],
+            r[7],
+            r[8],
         ])
     }
 
@@ -458,11 +451,11 @@ impl BldcPlant {
         // The electrical powers do not depend on the speed; the airgap power is Te·ωm.
         let lin = &self.form().0;
         let (p_m, p_e) = (lin.powers(&i_m, &[0.0; 3]), lin.powers(&i_e, &[0.0; 3]));
-        let (r2, a2) = self.stage_rates(&p_m, te_m, w2);
+        let (r2, a2) = self.stage_rates(&p_m, te_m, w2, te_m * w2);
         let w3 = w0 + 0.5 * h * a2;
-        let (r3, a3) = self.stage_rates(&p_m, te_m, w3);
+        let (r3, a3) = self.stage_rates(&p_m, te_m, w3, te_m * w3);
         let w4 = w0 + h * a3;
-        let (r4, a4) = self.stage_rates(&p_e, te_e, w4);
+        let (r4, a4) = self.stage_rates(&p_e, te_e, w4, te_e * w4);
         let mut x1 = *x;
         for (j, &i) in i_e.iter().enumerate() {
             x1[j] = i;
@@ -499,11 +492,12 @@ impl BldcPlant {
         (dte - ddrag * k1[OMEGA]) * self.inv_inertia
     }
 
-    /// The energy integrals' rates and dωm/dt at speed `wm`, torque `te` and electrical
-    /// powers `p` (the same order as in the state).
-    fn stage_rates(&self, p: &Powers, te: f64, wm: f64) -> ([f64; 9], f64) {
+    /// The energy integrals' rates and dωm/dt at speed `wm`, torque `te`, electrical
+    /// powers `p` and airgap power `airgap` (the same order as in the state).
+    fn stage_rates(&self, p: &Powers, te: f64, wm: f64, airgap: f64) -> ([f64; 9], f64) {
         let drag = self.friction * wm + self.coulomb * smooth_sign(wm * self.inv_coulomb_speed);
         let net = te - drag - self.load_nm;
+        // A locked rotor is held by a dynamometer, which absorbs the net torque.
         let (dw, p_dyno) = if self.speed_lock {
             (0.0, net * wm)
         } else {
@@ -517,7 +511,7 @@ impl BldcPlant {
             p.shunt,
             drag * wm,
             self.load_nm * wm,
-            te * wm,
+            airgap,
             p_dyno,
         ];
         (rates, dw)
