@@ -10,6 +10,7 @@
 //! (regeneration, diode freewheeling into the supply) clips to code 0, as on a single-supply
 //! amplifier.
 
+use super::rc::CubicRc;
 use crate::params::CurrentSenseParams;
 use drive_core::{TICK_S, Ticks};
 use std::collections::VecDeque;
@@ -33,51 +34,11 @@ pub struct CurrentSense {
     last: (Pieces, f64),
 }
 
-/// The filter over one piece of an update, from τa on: input u(τ) = Σ c_k·τ^k \[V\] (cubic
-/// at most), output y(τ) = p(τ) + (ya − p(τa))·e^{−(τ − τa)/T} with
-/// p = u − T·u′ + T²·u″ − T³·u‴ (the polynomial particular solution of T·y′ + y = u).
-#[derive(Copy, Clone, Debug)]
-struct Segment {
-    p: [f64; 4],
-    from: f64,
-    transient: f64,
-    tau: f64,
-}
-
-impl Segment {
-    fn new(from: f64, y_from: f64, c: [f64; 4], tau: f64) -> Self {
-        let (t, t2, t3) = (tau, tau * tau, tau * tau * tau);
-        let p = [
-            c[0] - t * c[1] + 2.0 * t2 * c[2] - 6.0 * t3 * c[3],
-            c[1] - 2.0 * t * c[2] + 6.0 * t2 * c[3],
-            c[2] - 3.0 * t * c[3],
-            c[3],
-        ];
-        let mut s = Segment {
-            p,
-            from,
-            transient: 0.0,
-            tau,
-        };
-        s.transient = y_from - s.poly(from);
-        s
-    }
-
-    fn poly(&self, t: f64) -> f64 {
-        let p = &self.p;
-        p[0] + t * (p[1] + t * (p[2] + t * p[3]))
-    }
-
-    fn at(&self, t: f64) -> f64 {
-        self.poly(t) + self.transient * (-(t - self.from) / self.tau).exp()
-    }
-}
-
 /// The pieces of one update: the cubic where it is inside the amplifier's swing, the clip
 /// level where it is not (at most three monotone parts, each crossing each level once).
 #[derive(Copy, Clone, Debug)]
 struct Pieces {
-    seg: [Segment; 7],
+    seg: [CubicRc; 7],
     n: usize,
     /// The filter output at the end of the update \[V\].
     y_end: f64,
@@ -113,7 +74,7 @@ impl CurrentSense {
             next_sample: conv,
             last: (
                 Pieces {
-                    seg: [Segment::new(0.0, 0.0, [0.0; 4], 1.0); 7],
+                    seg: [CubicRc::new(0.0, 0.0, [0.0; 4], 1.0); 7],
                     n: 1,
                     y_end: 0.0,
                 },
@@ -205,7 +166,7 @@ impl CurrentSense {
         bounds[1..n_b].sort_by(f64::total_cmp);
         bounds[n_b] = 1.0;
         let mut out = Pieces {
-            seg: [Segment::new(0.0, self.y, [0.0; 4], self.tau); 7],
+            seg: [CubicRc::new(0.0, self.y, [0.0; 4], self.tau); 7],
             n: 0,
             y_end: self.y,
         };
@@ -222,7 +183,7 @@ impl CurrentSense {
             } else {
                 coeffs
             };
-            let seg = Segment::new(w[0] * h, y, c, self.tau);
+            let seg = CubicRc::new(w[0] * h, y, c, self.tau);
             y = seg.at(w[1] * h);
             out.seg[out.n] = seg;
             out.n += 1;

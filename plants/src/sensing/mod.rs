@@ -5,6 +5,7 @@ pub mod comparator;
 pub mod current;
 pub mod foh;
 pub mod noise;
+pub mod rc;
 mod tick_powers;
 
 pub use comparator::ComparatorBank;
