@@ -4,7 +4,7 @@
 mod common;
 
 use bldc_drive::drive_core::{Abc, Command, Hold, OpenLoopSixStep, Plant, StopReason, Ticks};
-use bldc_drive::plants::{Conduction, PlantParams};
+use bldc_drive::plants::{Conduction, PlantParams, SolverParams};
 use common::*;
 
 /// Locked rotor, u→v driven by a constant voltage: i(t) = V/R_loop·(1 − e^{−t·R_loop/L_loop}),
@@ -108,13 +108,13 @@ fn energy_balance_and_torque_consistency_with_pwm() {
     assert!(e.supply > 1e-3 && e.diode > 0.0 && e.kinetic > 0.0, "{e:?}");
     let rel = (e.supply - out).abs() / e.supply;
     assert!(rel < 0.01, "energy balance off by {rel}: {e:?}");
-    // Far inside the requirement at the default 40 µs step: measured 5.9e-7 (2.5e-6 when
-    // the currents took RK4 steps too).
+    // Far inside the requirement at the default 80 µs step: measured 1.1e-6 (5.9e-7 at
+    // 40 µs; 2.5e-6 at 40 µs when the currents took RK4 steps too).
     assert!(rel < 1e-5, "energy balance off by {rel}: {e:?}");
     let mech = (e.airgap - (e.friction + e.load + e.kinetic)).abs() / e.airgap.abs();
     // ½·J·ωm² is quadratic in the state, which the integrator conserves to its own accuracy
-    // only: measured 1.2e-7 of the airgap energy at the default 40 µs step (1.4e-5 with RK4
-    // for the currents).
+    // only: measured 2.3e-7 of the airgap energy at the default 80 µs step (1.2e-7 at 40 µs;
+    // 1.4e-5 at 40 µs with RK4 for the currents).
     assert!(mech < 1e-4, "mechanical balance off by {mech}");
 }
 
@@ -422,7 +422,7 @@ fn first_w_clamp(max_step_s: f64) -> f64 {
 fn a_floating_terminal_reaching_its_clamp_is_located_in_time() {
     // Reference: steps of 0.1 µs leave no room for a late detection.
     let fine = first_w_clamp(0.1e-6);
-    let coarse = first_w_clamp(40e-6);
+    let coarse = first_w_clamp(SolverParams::default().max_step_s);
     assert!(
         (fine - coarse).abs() < 0.2e-6,
         "clamp at {coarse} s, reference {fine} s"

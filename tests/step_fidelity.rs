@@ -1,22 +1,26 @@
-//! Integrating ahead: the comparators see terminal and neutral voltages interpolated
-//! linearly over each plant step (up to `solver.max_step_s`, 40 µs by default). Near a
-//! back-EMF crossing under PWM, what they report must agree with a run whose steps are 50×
-//! shorter, within the interpolation error.
+//! Integrating ahead: the comparators see terminal and neutral voltages as the cubic Hermite
+//! interpolants of their values and rates at the ends of each plant step (up to
+//! `solver.max_step_s`, 80 µs by default). Near a back-EMF crossing under PWM, what they
+//! report must agree with a run whose steps are 100× shorter, within the interpolation
+//! error.
 //!
-//! The bound: over a step of h, a back-EMF E·sin θ is off its chord by at most
-//! h²/8·E·ωe²·|sin θ|, and within a step of the crossing |sin θ| ≤ ωe·h, so by E·ωe³·h³/8.
-//! The floating terminal carries e_w and the neutral e_w/2, so the filtered difference is
-//! off by at most twice that, and the crossing (slope E·ωe) moves by ωe²·h³/4. Noise held
-//! over 0.5 µs segments can turn a smaller move into a jump to the next segment of up to
-//! 2·noise/(E·ωe).
+//! The bound: over a step of h, the cubic Hermite interpolant of a back-EMF E·sin θ is off
+//! by at most h⁴/384·E·ωe⁴. The floating terminal carries e_w and the neutral e_w/2, so the
+//! filtered difference is off by at most twice that, and the crossing (slope E·ωe) moves by
+//! ωe³·h⁴/192 (2.4 ticks at 8000 rpm; a straight chord over the same steps moved it by 9).
+//! Noise held over 0.5 µs segments can turn a smaller move into a jump to the next segment
+//! of up to 2·noise/(E·ωe).
 
 mod common;
 
 use bldc_drive::drive_core::{Abc, Hold, Plant, StopReason, TICK_S, Ticks};
-use bldc_drive::plants::PlantParams;
+use bldc_drive::plants::{PlantParams, SolverParams};
 use common::*;
 
-const COARSE_S: f64 = 40e-6;
+/// The default longest step, and one a hundredth of it.
+fn coarse_s() -> f64 {
+    SolverParams::default().max_step_s
+}
 const FINE_S: f64 = 0.8e-6;
 
 /// w floats (u→v driven, PWM at `duty`) while the rotor turns at `rpm` through e_w's
@@ -52,7 +56,7 @@ fn edges(params: &PlantParams, rpm: f64, max_step_s: f64, duty: u32) -> Vec<(u64
 
 /// Coarse and fine runs: the same edges, each within `tol_ticks`; returns the largest gap.
 fn compare(params: &PlantParams, rpm: f64, duty: u32, tol_ticks: f64) -> u64 {
-    let coarse = edges(params, rpm, COARSE_S, duty);
+    let coarse = edges(params, rpm, coarse_s(), duty);
     let fine = edges(params, rpm, FINE_S, duty);
     let case = format!("{rpm} rpm, duty {duty}");
     assert!(
@@ -77,17 +81,17 @@ fn omega_e(rpm: f64) -> f64 {
     rpm_to_rad_s(rpm) * (PlantParams::default().motor.poles as f64 / 2.0)
 }
 
-/// ωe²·h³/4 in ticks, plus one for the tick grid.
+/// ωe³·h⁴/192 in ticks, plus one for the tick grid.
 fn interpolation_ticks(rpm: f64) -> f64 {
-    omega_e(rpm).powi(2) * COARSE_S.powi(3) / 4.0 / TICK_S + 1.0
+    omega_e(rpm).powi(3) * coarse_s().powi(4) / 192.0 / TICK_S + 1.0
 }
 
 #[test]
 fn without_noise_the_crossing_moves_less_than_the_interpolation_bound() {
     let mut params = PlantParams::default();
     params.sensing.comparator.noise_v = 0.0;
-    // 20 % duty (PWM intervals of 16 and 64 µs: the longest step splits the long ones),
-    // 50 %, and 100 % (no PWM: 40 µs steps throughout). At 8000 rpm the bound is 11 ticks.
+    // 20 % duty (PWM intervals of 16 and 64 µs), 50 %, and 100 % (no PWM: the longest
+    // steps throughout). At 8000 rpm the bound is 2.4 ticks.
     for rpm in [2000.0, 8000.0] {
         for duty in [400, 1000, 2000] {
             compare(&params, rpm, duty, interpolation_ticks(rpm));
@@ -106,7 +110,7 @@ fn with_noise_glitches_and_crossing_agree_with_short_steps() {
         params.sensing.seed = seed;
         for duty in [400, 1000] {
             assert!(
-                edges(&params, rpm, COARSE_S, duty).len() >= 5,
+                edges(&params, rpm, coarse_s(), duty).len() >= 5,
                 "glitches expected"
             );
             compare(&params, rpm, duty, interpolation_ticks(rpm) + jump);

@@ -81,6 +81,11 @@ impl<T: Copy> Abc<T> {
         }
     }
 
+    /// From values in order u, v, w.
+    pub const fn from_array([u, v, w]: [T; 3]) -> Self {
+        Abc { u, v, w }
+    }
+
     /// The values in order u, v, w.
     pub fn to_array(self) -> [T; 3] {
         [self.u, self.v, self.w]

@@ -247,6 +247,14 @@ impl Circuit {
         }
     }
 
+    /// The legs whose terminal [`Circuit::solve`] puts at v_n + e_x: the open ones, and with
+    /// fewer than two legs conducting the diode ones too (nothing carries their current).
+    pub fn follows_neutral(modes: &Abc<Conduction>) -> [bool; 3] {
+        let m = modes.to_array();
+        let n_c = m.iter().filter(|m| m.conducts()).count();
+        m.map(|c| !c.conducts() || (n_c < 2 && c.is_diode()))
+    }
+
     /// Neutral voltage with no conducting path: −Σe/3, clamped so that every terminal stays
     /// within the diode clamps.
     fn floating_neutral(&self, e: &Abc<f64>, i_shunt: f64) -> f64 {
@@ -536,6 +544,30 @@ mod tests {
         let p = s.powers;
         let rhs = p.copper + p.switch + p.diode + p.shunt + p.airgap + magnetic;
         assert!((p.supply - rhs).abs() < 1e-12, "{} vs {}", p.supply, rhs);
+    }
+
+    #[test]
+    fn the_legs_said_to_follow_the_neutral_do() {
+        let c = circuit();
+        let i = Abc::splat(0.0);
+        let e = Abc {
+            u: 0.9,
+            v: -0.2,
+            w: -0.7,
+        };
+        for k in 0..125 {
+            let modes = state_at(k);
+            let s = c.solve(&modes, &i, &e);
+            let follows = Circuit::follows_neutral(&modes);
+            for p in Phase::ALL {
+                let at = (s.v_term.get(p) - s.v_n - e.get(p)).abs() < 1e-12;
+                // A conducting leg sits at its source instead, which may coincide.
+                assert!(!follows[p.index()] || at, "{modes:?}: {p:?}");
+                if !at {
+                    assert!(!follows[p.index()], "{modes:?}: {p:?}");
+                }
+            }
+        }
     }
 
     #[test]

@@ -87,6 +87,42 @@ fn shaped(kind: &BackEmfShape, theta: f64, sin: Abc<f64>) -> Abc<f64> {
     }
 }
 
+/// df/dθ of the shape for the three phases, with sin θ and cos θ known (for the rate of
+/// the back-EMF, de_x/dt = λr·(P/2)·(dωm/dt·f + ωm·ωe·df/dθ)).
+pub fn shape_rate_with(kind: &BackEmfShape, theta: f64, (s, c): (f64, f64)) -> Abc<f64> {
+    // cos θx: the sinusoid a quarter-turn ahead.
+    let cos = sinusoid((c, -s));
+    match *kind {
+        BackEmfShape::Sinusoidal => cos,
+        BackEmfShape::Harmonic { third, fifth } => cos.map(|c| {
+            let c2 = c * c;
+            let c3 = c * (4.0 * c2 - 3.0); // cos 3θ
+            let c5 = c * (16.0 * c2 * c2 - 20.0 * c2 + 5.0); // cos 5θ
+            c + 3.0 * third * c3 + 5.0 * fifth * c5
+        }),
+        BackEmfShape::Trapezoidal { flat_top_deg } => {
+            let ramp = (PI - flat_top_deg.to_radians()) / 2.0;
+            Abc {
+                u: trapezoid_rate(theta, ramp),
+                v: trapezoid_rate(theta - TAU / 3.0, ramp),
+                w: trapezoid_rate(theta + TAU / 3.0, ramp),
+            }
+        }
+    }
+}
+
+/// d/dθ of [`trapezoid`]: ±1/ramp on the ramps, 0 on the plateaus.
+fn trapezoid_rate(theta: f64, ramp: f64) -> f64 {
+    let x = theta.rem_euclid(TAU);
+    let (x, sign) = if x < PI { (x, 1.0) } else { (x - PI, -1.0) };
+    let (d, rising) = if x < FRAC_PI_2 {
+        (x, 1.0)
+    } else {
+        (PI - x, -1.0)
+    };
+    if d < ramp { sign * rising / ramp } else { 0.0 }
+}
+
 /// Odd, half-wave symmetric trapezoid of peak 1 with linear ramps of width `ramp` \[rad\]
 /// centred on the crossings at 0 and π.
 fn trapezoid(theta: f64, ramp: f64) -> f64 {
@@ -124,6 +160,33 @@ mod tests {
             );
         }
         assert_eq!(sin_cos_near(3.0, base), 3.0f64.sin_cos());
+    }
+
+    #[test]
+    fn shape_rates_are_the_derivatives_of_the_shapes() {
+        let shapes = [
+            BackEmfShape::Sinusoidal,
+            BackEmfShape::Harmonic {
+                third: 0.1,
+                fifth: -0.05,
+            },
+            BackEmfShape::Trapezoidal {
+                flat_top_deg: 120.0,
+            },
+        ];
+        for kind in &shapes {
+            // Off the trapezoid's corners (every 30° from 0°, and 60° + multiples).
+            for k in 0..72 {
+                let th = (k as f64 * 5.0 + 2.5).to_radians();
+                let d = 1e-6;
+                let (a, b) = (shape(kind, th + d), shape(kind, th - d));
+                let r = shape_rate_with(kind, th, th.sin_cos());
+                for p in drive_core::Phase::ALL {
+                    let fd = (a.get(p) - b.get(p)) / (2.0 * d);
+                    assert!((r.get(p) - fd).abs() < 1e-6, "{kind:?} at {th}: {r:?}");
+                }
+            }
+        }
     }
 
     #[test]

@@ -489,20 +489,22 @@ impl SensingParams {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct SolverParams {
-    /// Longest step between events \[s\]. Default 40 µs, half the PWM period. With the
-    /// sinusoidal back-EMF the currents are integrated in closed form (off by ≈ 1e-8 A per
-    /// step, from the speed's change within it); the other shapes take RK4 steps, whose
-    /// local error with τe = L/R = 0.45 ms is ≈ (h/τe)^5/120 ≈ 5e-8. Comparator inputs are
-    /// interpolated linearly over a step; near a crossing the floating phase's back-EMF is
-    /// itself nearly linear, so this costs little crossing accuracy: crossings agree with
-    /// 0.8 µs steps within a tick (`tests/step_fidelity.rs`; 80 µs steps moved one by 9 ticks
-    /// at 8000 rpm, measured). Rule: 0.1 µs ..= 100 µs.
+    /// Longest step between events \[s\]. Default 80 µs, the PWM period: a step then spans
+    /// a whole PWM interval. With the sinusoidal back-EMF the currents are integrated in
+    /// closed form (off by 1e-7..1e-6 A per 80 µs step with 0.3 A rising and the rotor
+    /// accelerating from standstill, from the speed's change within the step; fourth
+    /// order); the other shapes take RK4 steps, whose local error with τe = L/R = 0.45 ms
+    /// is ≈ (h/τe)^5/120 ≈ 1.5e-6. The comparators see each voltage along its chord over a
+    /// step, with a floating terminal's back-EMF as its cubic Hermite interpolant on top
+    /// (see `sensing::Knot`): crossings agree with 0.8 µs steps to the tick
+    /// (`tests/step_fidelity.rs`; chords alone moved one by 9 ticks at 8000 rpm).
+    /// Rule: 0.1 µs ..= 100 µs.
     pub max_step_s: f64,
 }
 
 impl Default for SolverParams {
     fn default() -> Self {
-        SolverParams { max_step_s: 40e-6 }
+        SolverParams { max_step_s: 80e-6 }
     }
 }
 

@@ -7,6 +7,9 @@
 //! switching node's ringing adds a damped sinusoid. Near a back-EMF crossing these flip the
 //! comparator: the glitches the zero-crossing guards exist to reject.
 //!
+//! Over a plant step the inputs are interpolated from the step's ends (see [`Knot`]), and
+//! the filters' responses to them are exact.
+//!
 //! The output has hysteresis (rises above +h/2, falls below −h/2), is decided on the 20 ns
 //! master-tick grid, and reaches the controller after a propagation delay. Toggles are found
 //! by scanning ticks only where bounds on the signal allow one, which keeps the comparators
@@ -15,9 +18,37 @@
 
 use super::foh::Foh;
 use super::noise;
+use super::rc::{CubicRc, hermite, horner};
 use super::tick_powers::TickPowers;
 use crate::params::ComparatorParams;
 use drive_core::{Abc, Phase, TICK_S, Ticks};
+
+/// The terminal and neutral voltages at one end of a plant step. Between two ends each
+/// voltage is interpolated along its chord, except that a terminal following the neutral
+/// (v_x = v_n + e_x: a floating leg) takes its back-EMF's cubic Hermite interpolant on top
+/// of the neutral's chord. The back-EMF's curvature is what moves a floating phase's zero
+/// crossing; the other voltages curve only with the currents (τe = L/R ≫ a step), and
+/// both paths of a comparator see the neutral's chord alike.
+#[derive(Copy, Clone, Debug, Default, PartialEq)]
+pub struct Knot {
+    /// Terminal voltages \[V\].
+    pub v: Abc<f64>,
+    /// Neutral voltage \[V\].
+    pub vn: f64,
+    /// de_x/dt \[V/s\] of each terminal following the neutral; `None` for a driven one.
+    pub emf_rate: Abc<Option<f64>>,
+}
+
+impl Knot {
+    /// Driven terminals at `v`, the neutral at `vn`.
+    pub fn driven(v: Abc<f64>, vn: f64) -> Self {
+        Knot {
+            v,
+            vn,
+            emf_rate: Abc::splat(None),
+        }
+    }
+}
 
 /// Toggles kept without reallocating; more are kept too (the buffer grows), since every
 /// toggle that may still be read must stay.
@@ -89,7 +120,7 @@ impl History {
 }
 
 /// One channel's noise-free input over the step being processed, in closed form:
-/// s(τ) = l + β·τ + A·e^{−τ/τp} − B·e^{−τ/τn} (ringing and noise come on top).
+/// s(τ) = P(τ) + A·e^{−τ/τp} − B·e^{−τ/τn} with P cubic (ringing and noise come on top).
 #[derive(Clone, Debug)]
 struct Channel {
     x: Phase,
@@ -99,9 +130,15 @@ struct Channel {
     /// follow by table (see [`ComparatorBank::decay`]).
     k_s: u64,
     base: (f64, f64),
-    /// l = α − offset \[V\], β [V/s], A and B \[V\] (the filter transients at τ = 0).
+    /// P's coefficients \[V, V/s, …\]: the paths' particular solutions less the offset,
+    /// linear but for a floating leg's back-EMF curvature; A and B \[V\] are the filter
+    /// transients at τ = 0.
+    poly: [f64; 4],
+    /// Bounds use P's chord over the step, l + β·τ \[V, V/s\], and how far P strays from
+    /// it, within [dev.0, dev.1] \[V\]: as cheap as a linear input, and valid throughout.
     l: f64,
     beta: f64,
+    dev: (f64, f64),
     a: f64,
     b: f64,
     /// A/τp and B/τn [V/s]: the transients' rates at τ = 0 (their derivative's weights).
@@ -114,19 +151,49 @@ struct Channel {
 
 impl Channel {
     /// The channel over a step from `t0` (its first tick and the decays there are set when
-    /// a scan needs them).
-    /// `inv_tau` holds 1/τp and 1/τn, the filters' (`fx`, `fn_`) inverse time constants.
-    fn new(x: Phase, t0: f64, (fx, fn_): (&Foh, &Foh), inv_tau: (f64, f64), offset: f64) -> Self {
+    /// a scan needs them): the phase path's response `fx` to its chord, plus `bend` to its
+    /// back-EMF's curvature (a floating leg), less the neutral path's `fn_`.
+    /// `inv_tau` holds 1/τp and 1/τn, the filters' inverse time constants; the step is `h`.
+    fn new(
+        x: Phase,
+        t0: f64,
+        (fx, bend, fn_): (&Foh, Option<&CubicRc>, &Foh),
+        inv_tau: (f64, f64),
+        offset: f64,
+        h: f64,
+    ) -> Self {
+        let (q, qt) = bend.map_or(([0.0; 4], 0.0), |b| (b.p, b.transient));
+        let poly = [
+            fx.a - fn_.a - fx.b * fx.tau + fn_.b * fn_.tau - offset + q[0],
+            fx.b - fn_.b + q[1],
+            q[2],
+            q[3],
+        ];
+        let a = fx.c + qt;
+        // P − chord = τ·(τ − h)·(p2 + p3·(τ + h)): the first factor lies in [−h²/4, 0], the
+        // second is linear in τ, so its values at τ = 0 and h bound it (and fix the sign
+        // of the deviation where they agree).
+        let (fa, fb) = (poly[2] + poly[3] * h, poly[2] + 2.0 * poly[3] * h);
+        let m = 0.25 * h * h * fa.abs().max(fb.abs());
+        let dev = if fa > 0.0 && fb > 0.0 {
+            (-m, 0.0)
+        } else if fa < 0.0 && fb < 0.0 {
+            (0.0, m)
+        } else {
+            (-m, m)
+        };
         Channel {
             k_s: 0,
             base: (1.0, 1.0),
-            ap: fx.c * inv_tau.0,
+            ap: a * inv_tau.0,
             bn: fn_.c * inv_tau.1,
             x,
             t0,
-            l: fx.a - fn_.a - fx.b * fx.tau + fn_.b * fn_.tau - offset,
-            beta: fx.b - fn_.b,
-            a: fx.c,
+            poly,
+            l: poly[0],
+            beta: poly[1] + h * (poly[2] + h * poly[3]),
+            dev,
+            a,
             b: fn_.c,
             stationary: std::cell::Cell::new(None),
         }
@@ -204,7 +271,7 @@ pub struct ComparatorBank {
     /// Noise segments visited by scans (work counter).
     pub segments: u64,
     /// Filter segments of the last update (phase paths, neutral) and its start time.
-    last: ([Foh; 3], Foh, f64),
+    last: ([(Foh, Option<CubicRc>); 3], Foh, f64),
 }
 
 impl ComparatorBank {
@@ -278,7 +345,7 @@ impl ComparatorBank {
             scans: 0,
             segments: 0,
             last: (
-                [Foh::new(0.0, 0.0, 0.0, 0.0, 1.0); 3],
+                [(Foh::new(0.0, 0.0, 0.0, 0.0, 1.0), None); 3],
                 Foh::new(0.0, 0.0, 0.0, 0.0, 1.0),
                 0.0,
             ),
@@ -362,21 +429,11 @@ impl ComparatorBank {
         }
     }
 
-    /// Advances the filters over [t0, t1] with terminal/neutral voltages varying linearly
-    /// from (`v0`, `vn0`) to (`v1`, `vn1`), recording every output toggle on the tick grid:
+    /// Advances the filters over [t0, t1] with terminal and neutral voltages interpolated
+    /// between `k0` and `k1` (see [`Knot`]), recording every output toggle on the tick grid:
     /// now for the `watched` channels, as far as they are read for the others (see
     /// [`ComparatorBank::catch_up`]).
-    #[allow(clippy::too_many_arguments)]
-    pub fn update(
-        &mut self,
-        t0: f64,
-        t1: f64,
-        v0: &Abc<f64>,
-        vn0: f64,
-        v1: &Abc<f64>,
-        vn1: f64,
-        watched: Abc<bool>,
-    ) {
+    pub fn update(&mut self, t0: f64, t1: f64, k0: &Knot, k1: &Knot, watched: Abc<bool>) {
         let h = t1 - t0;
         if h <= 0.0 {
             return;
@@ -391,7 +448,8 @@ impl ComparatorBank {
         }
         // One division per step: the four filter inputs' slopes share 1/h.
         let inv_h = 1.0 / h;
-        let fn_ = Foh::ramp(self.y_n, vn0, (vn1 - vn0) * inv_h, self.tau_n);
+        let dvn = (k1.vn - k0.vn) * inv_h;
+        let fn_ = Foh::ramp(self.y_n, k0.vn, dvn, self.tau_n);
         let k_start = Ticks::at_or_before(t0).0 + 1;
         let k_end = Ticks::at_or_before(t1).0;
         // Steps repeat their lengths (PWM half-periods, the solver's longest step): cache;
@@ -408,10 +466,31 @@ impl ComparatorBank {
         let mut first: Option<(f64, f64)> = None;
         // The ringing phasor at the first tick, shared by the channels too.
         let mut z0: Option<(f64, f64)> = None;
+        let (v0, v1) = (k0.v.to_array(), k1.v.to_array());
+        let (r0, r1) = (k0.emf_rate.to_array(), k1.emf_rate.to_array());
+        let (y, offset) = (self.y.to_array(), self.offset.to_array());
+        let mut y_end = y;
         for x in Phase::ALL {
-            let (u0, u1) = (v0.get(x), v1.get(x));
-            let fx = Foh::ramp(self.y.get(x), u0, (u1 - u0) * inv_h, self.tau_p);
-            let mut c = Channel::new(x, t0, (&fx, &fn_), self.inv_tau, self.offset.get(x));
+            let j = x.index();
+            let chord = (v1[j] - v0[j]) * inv_h;
+            let fx = Foh::ramp(y[j], v0[j], chord, self.tau_p);
+            // A floating leg's input is the neutral's chord plus its back-EMF's Hermite
+            // cubic: its chord plus a cubic vanishing at both ends, filtered from rest.
+            let bend = match (r0[j], r1[j]) {
+                (Some(d0), Some(d1)) => {
+                    let q = hermite(inv_h, (0.0, dvn + d0 - chord), (0.0, dvn + d1 - chord));
+                    Some(CubicRc::new(0.0, 0.0, q, self.tau_p))
+                }
+                _ => None,
+            };
+            let mut c = Channel::new(
+                x,
+                t0,
+                (&fx, bend.as_ref(), &fn_),
+                self.inv_tau,
+                offset[j],
+                h,
+            );
             if k_start <= k_end && self.may_toggle(&c, 0.0, h, w, env0, -self.noise_a, self.noise_a)
             {
                 c.k_s = k_start;
@@ -442,9 +521,10 @@ impl ComparatorBank {
                     self.pending[x.index()] = Some(cur);
                 }
             }
-            *self.y.get_mut(x) = fx.at_decayed(h, w[2]);
-            self.last.0[x.index()] = fx;
+            y_end[j] = fx.at_decayed(h, w[2]) + bend.map_or(0.0, |b| b.at_decayed(h, w[2]));
+            self.last.0[j] = (fx, bend);
         }
+        self.y = Abc::from_array(y_end);
         self.y_n = fn_.at_decayed(h, w[3]);
         self.last.1 = fn_;
         self.last.2 = t0;
@@ -469,7 +549,8 @@ impl ComparatorBank {
         self.finish_pending(t.0);
         let tau = t.seconds() - self.last.2;
         for x in Phase::ALL {
-            *self.y.get_mut(x) = self.last.0[x.index()].at(tau);
+            let (fx, bend) = &self.last.0[x.index()];
+            *self.y.get_mut(x) = fx.at(tau) + bend.map_or(0.0, |b| b.at(tau));
             let h = &mut self.hist[x.index()];
             self.toggles -= h.truncate_after(t.0);
             *self.out.get_mut(x) = h.newest().map_or(h.base, |t| t.1);
@@ -543,13 +624,13 @@ impl ComparatorBank {
                 let mut ep = c.a * dp;
                 let mut en = c.b * dn;
                 let mut zk = z;
-                let lin0 = c.l + n;
+                let poly = [c.poly[0] + n, c.poly[1], c.poly[2], c.poly[3]];
                 let (half_h, qp, qn, qr) = (self.half_h, self.q_p, self.q_n, self.q_ring);
                 let ringing = z != (0.0, 0.0);
                 let mut out = self.out.get(x);
                 let mut tau = ta;
                 for kk in k..=seg_end {
-                    let s = lin0 + c.beta * tau + ep - en + zk.1;
+                    let s = horner(&poly, tau) + ep - en + zk.1;
                     if (!out && s > half_h) || (out && s < -half_h) {
                         out = !out;
                         self.hist[ch].push(kk, out);
@@ -748,12 +829,16 @@ impl ComparatorBank {
         }
     }
 
-    /// [`ComparatorBank::range`] from the interval's ends only: exact for the linear part,
-    /// and for the transients unless their stationary point lies inside.
+    /// [`ComparatorBank::range`] from the interval's ends only: exact for P's chord, widened
+    /// by P's deviation from it, and for the transients unless their stationary point lies
+    /// inside.
     fn range_ends(c: &Channel, ta: f64, tb: f64, w: [f64; 4], env: f64) -> (f64, f64) {
         let (l1, l2) = (c.l + c.beta * ta, c.l + c.beta * tb);
         let (ga, gb) = (c.a * w[0] - c.b * w[1], c.a * w[2] - c.b * w[3]);
-        (l1.min(l2) + ga.min(gb) - env, l1.max(l2) + ga.max(gb) + env)
+        (
+            l1.min(l2) + c.dev.0 + ga.min(gb) - env,
+            l1.max(l2) + c.dev.1 + ga.max(gb) + env,
+        )
     }
 
     /// How far g(τ) = A·e^{−τ/τp} − B·e^{−τ/τn} reaches beyond its values at the ends of
@@ -837,7 +922,13 @@ mod tests {
         let mut long = ComparatorBank::new(&p, 7, &v, 0.0);
         let mut short = ComparatorBank::new(&p, 7, &v, 0.0);
         let n = 2000u64;
-        long.update(0.0, n as f64 * TICK_S, &v, 0.0, &v, 0.0, ALL);
+        long.update(
+            0.0,
+            n as f64 * TICK_S,
+            &Knot::driven(v, 0.0),
+            &Knot::driven(v, 0.0),
+            ALL,
+        );
         let w = Abc::splat(true);
         for k in 0..n {
             // Queried at each instant as the engine would, before the plant moves on.
@@ -853,10 +944,8 @@ mod tests {
             short.update(
                 k as f64 * TICK_S,
                 (k + 1) as f64 * TICK_S,
-                &v,
-                0.0,
-                &v,
-                0.0,
+                &Knot::driven(v, 0.0),
+                &Knot::driven(v, 0.0),
                 ALL,
             );
         }
@@ -875,7 +964,13 @@ mod tests {
         let v = Abc::splat(0.0);
         let mut c = ComparatorBank::new(&p, 7, &v, 0.0);
         let none = Abc::splat(false);
-        c.update(0.0, 1000.0 * TICK_S, &v, 0.0, &v, 0.0, none);
+        c.update(
+            0.0,
+            1000.0 * TICK_S,
+            &Knot::driven(v, 0.0),
+            &Knot::driven(v, 0.0),
+            none,
+        );
         assert!(c.pending.iter().all(Option::is_some), "scans pending");
         // Cut at the step's start, before its first tick: nothing of it remains.
         c.truncate_at(Ticks(0));
@@ -892,7 +987,13 @@ mod tests {
         let p = chattering();
         let v = Abc::splat(0.0);
         let mut c = ComparatorBank::new(&p, 7, &v, 0.0);
-        c.update(0.0, 1000.0 * TICK_S, &v, 0.0, &v, 0.0, ALL);
+        c.update(
+            0.0,
+            1000.0 * TICK_S,
+            &Knot::driven(v, 0.0),
+            &Knot::driven(v, 0.0),
+            ALL,
+        );
         let all = Abc::splat(true);
         let first = c.next_visible_change(Ticks(0), all).expect("chatter");
         // Long after it became visible, but unreported: it must still be found.
@@ -920,7 +1021,13 @@ mod tests {
             w: 0.5,
         };
         let mut c = ComparatorBank::new(&p, 1, &lo, 0.0);
-        c.update(0.0, 20e-6, &hi, 0.0, &hi, 0.0, ALL);
+        c.update(
+            0.0,
+            20e-6,
+            &Knot::driven(hi, 0.0),
+            &Knot::driven(hi, 0.0),
+            ALL,
+        );
         let (y, yn) = c.filtered();
         assert!((y.u - 0.5).abs() < 1e-6 && (y.v + 0.5).abs() < 1e-6 && yn.abs() < 1e-12);
         let out = c.outputs_at(Ticks(1000));

@@ -8,5 +8,5 @@ pub mod noise;
 pub mod rc;
 mod tick_powers;
 
-pub use comparator::ComparatorBank;
+pub use comparator::{ComparatorBank, Knot};
 pub use current::CurrentSense;
