@@ -357,6 +357,10 @@ impl ComparatorBank {
         if self.ring_gain == 0.0 || dv == 0.0 {
             return;
         }
+        // Every tick up to this edge is decided with the ringing as it was: a scan left
+        // pending would otherwise see this excitation extrapolated backwards, growing as
+        // e^{+t/τr} before the edge that causes it.
+        self.finish_pending(u64::MAX);
         // Referred to the tick at or after t (the engine's instants are ticks already).
         let k = Ticks::at_or_after(t).0.0;
         let lead = k as f64 * TICK_S - t;
@@ -375,15 +379,17 @@ impl ComparatorBank {
         self.ring_t = k as f64 * TICK_S;
     }
 
-    /// The ringing phasor at tick `k`: by table from the excitation on.
+    /// The ringing phasor at tick `k`, not before the last excitation (see
+    /// [`ComparatorBank::excite`]): by table.
     fn ring_at(&self, k: u64) -> (f64, f64) {
         if self.ring == (0.0, 0.0) {
             return (0.0, 0.0);
         }
-        if k < self.ring_k {
-            return self.ring_at_phasor(k as f64 * TICK_S);
-        }
-        let (wr, wi) = self.pow_ring.at(k - self.ring_k);
+        debug_assert!(
+            k >= self.ring_k,
+            "ringing asked at tick {k}, before its excitation"
+        );
+        let (wr, wi) = self.pow_ring.at(k.saturating_sub(self.ring_k));
         let z = (
             self.ring.0 * wr - self.ring.1 * wi,
             self.ring.0 * wi + self.ring.1 * wr,
@@ -392,22 +398,6 @@ impl ComparatorBank {
             return (0.0, 0.0);
         }
         z
-    }
-
-    fn ring_at_phasor(&self, t: f64) -> (f64, f64) {
-        if self.ring == (0.0, 0.0) {
-            return (0.0, 0.0);
-        }
-        let dt = t - self.ring_t;
-        let d = (-dt / self.ring_decay).exp();
-        if d * (self.ring.0.abs() + self.ring.1.abs()) < 1e-9 {
-            return (0.0, 0.0);
-        }
-        let (s, c) = (self.ring_w * dt).sin_cos();
-        (
-            d * (self.ring.0 * c - self.ring.1 * s),
-            d * (self.ring.0 * s + self.ring.1 * c),
-        )
     }
 
     /// e^{−τ/τp}, e^{−τ/τn} at tick `k` (not before the step's first) of `c`'s step.
@@ -955,6 +945,40 @@ mod tests {
             long.toggle_count()
         );
         assert_eq!(long.toggle_count(), short.toggle_count());
+    }
+
+    #[test]
+    fn ringing_never_reaches_back_before_the_edge_that_excites_it() {
+        // 3 mV inside the ±5 mV hysteresis band, ringing from an edge at t = 0: the scans of
+        // a step nobody watches stay pending. A much larger edge at the step's end must not
+        // change what is read before it.
+        let p = ComparatorParams {
+            noise_v: 0.0,
+            offset_v: Abc::splat(0.0),
+            ..ComparatorParams::default()
+        };
+        let v = Abc::splat(3e-3);
+        let end = 100u64; // 2 µs, the ringing's decay time ten times over
+        let run = |second_edge: bool| {
+            let mut c = ComparatorBank::new(&p, 1, &v, 0.0);
+            c.excite(0.0, 1.0);
+            let k = Knot::driven(v, 0.0);
+            c.update(0.0, end as f64 * TICK_S, &k, &k, Abc::splat(false));
+            assert!(c.pending.iter().all(Option::is_some), "scans pending");
+            if second_edge {
+                c.excite(end as f64 * TICK_S, 10.0);
+            }
+            c.finish_pending(u64::MAX);
+            (0..=end + c.delay)
+                .map(|k| c.outputs_at(Ticks(k)))
+                .collect::<Vec<_>>()
+        };
+        let quiet = run(false);
+        assert!(
+            quiet.iter().any(|o| !o.u),
+            "the first edge's ringing toggles them"
+        );
+        assert_eq!(run(true), quiet);
     }
 
     #[test]
