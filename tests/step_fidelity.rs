@@ -1,19 +1,21 @@
-//! Integrating ahead: the comparators see terminal and neutral voltages as the cubic Hermite
-//! interpolants of their values and rates at the ends of each plant step (up to
-//! `solver.max_step_s`, 80 µs by default). Near a back-EMF crossing under PWM, what they
-//! report must agree with a run whose steps are 100× shorter, within the interpolation
-//! error.
+//! Integrating ahead: the comparators see terminal and neutral voltages interpolated over
+//! each plant step (up to `solver.max_step_s`, 80 µs by default): along their chords, and on
+//! steps longer than `CHORD_S` (40 µs) with a floating terminal's back-EMF as its cubic
+//! Hermite interpolant. Near a back-EMF crossing under PWM, what they report must agree
+//! with a run whose steps are 100× shorter, within the interpolation error.
 //!
-//! The bound: over a step of h, the cubic Hermite interpolant of a back-EMF E·sin θ is off
-//! by at most h⁴/384·E·ωe⁴. The floating terminal carries e_w and the neutral e_w/2, so the
-//! filtered difference is off by at most twice that, and the crossing (slope E·ωe) moves by
-//! ωe³·h⁴/192 (2.4 ticks at 8000 rpm; a straight chord over the same steps moved it by 9).
-//! Noise held over 0.5 µs segments can turn a smaller move into a jump to the next segment
-//! of up to 2·noise/(E·ωe).
+//! The bounds, over a step of h, for a back-EMF E·sin θ: its chord is off by at most
+//! h²/8·E·ωe²·|sin θ|, and within a step of the crossing |sin θ| ≤ ωe·h, so by E·ωe³·h³/8;
+//! its Hermite cubic by at most h⁴/384·E·ωe⁴. The floating terminal carries e_w and the
+//! neutral e_w/2, so the filtered difference is off by at most twice that, and the crossing
+//! (slope E·ωe) moves by ωe²·h³/4, or ωe³·h⁴/192 (2.4 ticks at 8000 rpm and 80 µs, where a
+//! chord moved it by 9). Noise held over 0.5 µs segments can turn a smaller move into a jump
+//! to the next segment of up to 2·noise/(E·ωe).
 
 mod common;
 
 use bldc_drive::drive_core::{Abc, Hold, Plant, StopReason, TICK_S, Ticks};
+use bldc_drive::plants::bldc::CHORD_S;
 use bldc_drive::plants::{PlantParams, SolverParams};
 use common::*;
 
@@ -81,20 +83,35 @@ fn omega_e(rpm: f64) -> f64 {
     rpm_to_rad_s(rpm) * (PlantParams::default().motor.poles as f64 / 2.0)
 }
 
-/// ωe³·h⁴/192 in ticks, plus one for the tick grid.
-fn interpolation_ticks(rpm: f64) -> f64 {
-    omega_e(rpm).powi(3) * coarse_s().powi(4) / 192.0 / TICK_S + 1.0
+/// The crossing's move on the default steps at `duty` (PWM intervals of duty and 1 − duty
+/// of the 80 µs period, or the longest steps at 100 %) in ticks, plus one for the grid.
+fn interpolation_ticks(rpm: f64, duty: u32) -> f64 {
+    let we = omega_e(rpm);
+    let on = coarse_s() * f64::from(duty) / 2000.0;
+    let worst = [on, coarse_s() - on]
+        .into_iter()
+        .filter(|&h| h > 0.0)
+        .map(|h| {
+            if h <= CHORD_S {
+                we.powi(2) * h.powi(3) / 4.0
+            } else {
+                we.powi(3) * h.powi(4) / 192.0
+            }
+        })
+        .fold(0.0, f64::max);
+    worst / TICK_S + 1.0
 }
 
 #[test]
 fn without_noise_the_crossing_moves_less_than_the_interpolation_bound() {
     let mut params = PlantParams::default();
     params.sensing.comparator.noise_v = 0.0;
-    // 20 % duty (PWM intervals of 16 and 64 µs), 50 %, and 100 % (no PWM: the longest
-    // steps throughout). At 8000 rpm the bound is 2.4 ticks.
+    // 20 % duty (PWM intervals of 16 µs, on chords, and 64 µs), 50 % (40 µs chords), and
+    // 100 % (no PWM: 80 µs steps throughout). At 8000 rpm the bounds are 2.3, 21 and 2.4
+    // ticks.
     for rpm in [2000.0, 8000.0] {
         for duty in [400, 1000, 2000] {
-            compare(&params, rpm, duty, interpolation_ticks(rpm));
+            compare(&params, rpm, duty, interpolation_ticks(rpm, duty));
         }
     }
 }
@@ -113,7 +130,7 @@ fn with_noise_glitches_and_crossing_agree_with_short_steps() {
                 edges(&params, rpm, coarse_s(), duty).len() >= 5,
                 "glitches expected"
             );
-            compare(&params, rpm, duty, interpolation_ticks(rpm) + jump);
+            compare(&params, rpm, duty, interpolation_ticks(rpm, duty) + jump);
         }
     }
 }

@@ -25,6 +25,12 @@ use nalgebra::SVector;
 use std::f64::consts::TAU;
 use std::sync::{Arc, OnceLock};
 
+/// The longest step over which the comparators see a floating terminal's back-EMF along
+/// its chord \[s\]: off by at most h²/8·E·ωe² mid-step, which moves a crossing by about a
+/// tick at 8000 rpm (`tests/step_fidelity.rs`). Longer steps add the back-EMF's curvature
+/// (see [`Knot`]), which costs a few hundred instructions a step.
+pub const CHORD_S: f64 = 40e-6;
+
 const N: usize = 14;
 type State = SVector<f64, N>;
 const OMEGA: usize = 3;
@@ -337,18 +343,21 @@ impl BldcPlant {
         [0, 1, 2].map(|j| a * shape[j] + b * rate[j])
     }
 
-    /// The comparators' knots at the ends of a step from `x0` (derivative `f0`, network
-    /// `s0`) to `x1` (`f1`, `s1`), inside the step that starts at `base` (see [`Knot`]).
+    /// The comparators' knots at the ends of a step of `h` from `x0` (derivative `f0`,
+    /// network `s0`) to `x1` (`f1`, `s1`), inside the step that starts at `base` (see
+    /// [`Knot`]). Steps up to [`CHORD_S`] keep every voltage on its chord.
     fn knots(
         &self,
         (x0, f0, s0): (&State, &State, &Solution),
         (x1, f1, s1): (&State, &State, &Solution),
+        h: f64,
         base: (f64, f64, f64),
     ) -> (Knot, Knot) {
         let follows = Circuit::follows_neutral(&self.modes);
+        let bend = h > CHORD_S && follows.contains(&true);
         let knot = |x: &State, f: &State, s: &Solution| {
             let mut k = Knot::driven(s.v_term, s.v_n);
-            if follows.contains(&true) {
+            if bend {
                 let de = self.emf_rate(x, f, base);
                 k.emf_rate = Abc::from_fn(|p| follows[p.index()].then_some(de[p.index()]));
             }
@@ -1124,7 +1133,7 @@ impl BldcPlant {
                 event = Some(p);
             }
             self.cmp.forget_history(Ticks::at_or_before(t0), unreported);
-            let (k0, k1) = self.knots((&x0, &f0, &self.start), (&x1, &f1, &s1), b0);
+            let (k0, k1) = self.knots((&x0, &f0, &self.start), (&x1, &f1, &s1), t1 - t0, b0);
             self.cmp.update(t0, t1, &k0, &k1, watch.channels);
             self.cur.update(
                 t0,

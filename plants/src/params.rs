@@ -495,9 +495,10 @@ pub struct SolverParams {
     /// accelerating from standstill, from the speed's change within the step; fourth
     /// order); the other shapes take RK4 steps, whose local error with τe = L/R = 0.45 ms
     /// is ≈ (h/τe)^5/120 ≈ 1.5e-6. The comparators see each voltage along its chord over a
-    /// step, with a floating terminal's back-EMF as its cubic Hermite interpolant on top
-    /// (see `sensing::Knot`): crossings agree with 0.8 µs steps to the tick
-    /// (`tests/step_fidelity.rs`; chords alone moved one by 9 ticks at 8000 rpm).
+    /// step, and on steps longer than 40 µs (`bldc::CHORD_S`) a floating terminal's back-EMF
+    /// as its cubic Hermite interpolant on top (see `sensing::Knot`): crossings agree with
+    /// 0.8 µs steps within a tick (`tests/step_fidelity.rs`; chords alone over 80 µs moved
+    /// one by 9 ticks at 8000 rpm).
     /// Rule: 0.1 µs ..= 100 µs.
     pub max_step_s: f64,
 }

@@ -25,8 +25,9 @@ use drive_core::{Abc, Phase, TICK_S, Ticks};
 
 /// The terminal and neutral voltages at one end of a plant step. Between two ends each
 /// voltage is interpolated along its chord, except that a terminal following the neutral
-/// (v_x = v_n + e_x: a floating leg) takes its back-EMF's cubic Hermite interpolant on top
-/// of the neutral's chord. The back-EMF's curvature is what moves a floating phase's zero
+/// (v_x = v_n + e_x: a floating leg) whose back-EMF rates are given takes its back-EMF's
+/// cubic Hermite interpolant on top of the neutral's chord (the plant gives them on steps
+/// long enough for the chord's error to matter). The back-EMF's curvature is what moves a floating phase's zero
 /// crossing; the other voltages curve only with the currents (τe = L/R ≫ a step), and
 /// both paths of a comparator see the neutral's chord alike.
 #[derive(Copy, Clone, Debug, Default, PartialEq)]
