@@ -6,10 +6,12 @@
 //!
 //! The bounds, over a step of h, for a back-EMF E·sin θ: its chord is off by at most
 //! h²/8·E·ωe²·|sin θ|, and within a step of the crossing |sin θ| ≤ ωe·h, so by E·ωe³·h³/8;
-//! its Hermite cubic by at most h⁴/384·E·ωe⁴. The floating terminal carries e_w and the
-//! neutral e_w/2, so the filtered difference is off by at most twice that, and the crossing
-//! (slope E·ωe) moves by ωe²·h³/4, or ωe³·h⁴/192 (2.4 ticks at 8000 rpm and 80 µs, where a
-//! chord moved it by 9). Noise held over 0.5 µs segments can turn a smaller move into a jump
+//! its Hermite cubic by at most h⁴/384·E·ωe⁴. On chords, the floating terminal carries e_w
+//! and the neutral e_w/2, so the filtered difference is off by at most twice the first; with
+//! the cubic, the neutral's chord (on both paths) cancels but for the filters' 5 % mismatch,
+//! and twice the second is a margin for that. The crossing (slope E·ωe) moves by ωe²·h³/4,
+//! or ωe³·h⁴/192 (1.4 ticks at 8000 rpm and 80 µs, where a chord moved it by 9); a tick is
+//! added for the grid. Noise held over 0.5 µs segments can turn a smaller move into a jump
 //! to the next segment of up to 2·noise/(E·ωe).
 
 mod common;
@@ -19,7 +21,7 @@ use bldc_drive::plants::bldc::CHORD_S;
 use bldc_drive::plants::{PlantParams, SolverParams};
 use common::*;
 
-/// The default longest step, and one a hundredth of it.
+/// The default longest step.
 fn coarse_s() -> f64 {
     SolverParams::default().max_step_s
 }
@@ -108,7 +110,7 @@ fn without_noise_the_crossing_moves_less_than_the_interpolation_bound() {
     params.sensing.comparator.noise_v = 0.0;
     // 20 % duty (PWM intervals of 16 µs, on chords, and 64 µs), 50 % (40 µs chords), and
     // 100 % (no PWM: 80 µs steps throughout). At 8000 rpm the bounds are 2.3, 21 and 2.4
-    // ticks.
+    // ticks, the grid's included.
     for rpm in [2000.0, 8000.0] {
         for duty in [400, 1000, 2000] {
             compare(&params, rpm, duty, interpolation_ticks(rpm, duty));

@@ -26,9 +26,10 @@ use std::f64::consts::TAU;
 use std::sync::{Arc, OnceLock};
 
 /// The longest step over which the comparators see a floating terminal's back-EMF along
-/// its chord \[s\]: off by at most h²/8·E·ωe² mid-step, which moves a crossing by about a
-/// tick at 8000 rpm (`tests/step_fidelity.rs`). Longer steps add the back-EMF's curvature
-/// (see [`Knot`]), which costs a few hundred instructions a step.
+/// its chord \[s\]. Near a crossing the chord is off by at most E·ωe³·h³/8, a move of
+/// ωe²·h³/4 (21 ticks at 8000 rpm, the bound `tests/step_fidelity.rs` allows; it measures
+/// a tick at most, since the sine's curvature vanishes at its crossing). Longer steps add the
+/// back-EMF's curvature (see [`Knot`]), which costs a few hundred instructions a step.
 pub const CHORD_S: f64 = 40e-6;
 
 const N: usize = 14;
@@ -354,7 +355,8 @@ impl BldcPlant {
         base: (f64, f64, f64),
     ) -> (Knot, Knot) {
         let follows = Circuit::follows_neutral(&self.modes);
-        let bend = h > CHORD_S && follows.contains(&true);
+        // Half a tick of slack: a step of exactly 40 µs is one whatever its rounding.
+        let bend = h > CHORD_S + 0.5 * drive_core::TICK_S && follows.contains(&true);
         let knot = |x: &State, f: &State, s: &Solution| {
             let mut k = Knot::driven(s.v_term, s.v_n);
             if bend {
@@ -1204,7 +1206,11 @@ mod tests {
 
     /// A plant at `rpm` with u switched high, v low and w off, the currents `i`.
     fn driven(i: [f64; 3], rpm: f64, lock: bool) -> BldcPlant {
-        let mut pl = BldcPlant::new(PlantParams::default()).expect("defaults are valid");
+        driven_with(PlantParams::default(), i, rpm, lock)
+    }
+
+    fn driven_with(params: PlantParams, i: [f64; 3], rpm: f64, lock: bool) -> BldcPlant {
+        let mut pl = BldcPlant::new(params).expect("valid parameters");
         pl.set_rotor(0.3, rpm, lock);
         pl.gates = Gates {
             high: Abc::from_fn(|p| p == Phase::U),
@@ -1215,6 +1221,51 @@ mod tests {
         }
         pl.refresh_start();
         pl
+    }
+
+    /// The back-EMF's rate from the state and its derivative (what bends the comparators'
+    /// input, see `knots`) is the back-EMF's change along the trajectory, the rotor
+    /// accelerating: against central differences over fine RK4 steps, for every shape.
+    #[test]
+    fn the_back_emf_rate_follows_the_trajectory() {
+        let shapes = [
+            BackEmfShape::Sinusoidal,
+            BackEmfShape::Harmonic {
+                third: 0.1,
+                fifth: -0.05,
+            },
+            BackEmfShape::Trapezoidal {
+                flat_top_deg: 120.0,
+            },
+        ];
+        for shape in shapes {
+            let mut params = PlantParams::default();
+            params.motor.back_emf = shape;
+            let pl = driven_with(params, [0.3, -0.3, 0.0], 3000.0, false);
+            let x = pl.x;
+            let b = BldcPlant::base(&x);
+            let f = pl.deriv(&dynamic(&x), b);
+            let got = pl.emf_rate(&x, &f, b);
+            let d = 1e-7;
+            let (ahead, behind) = (fine(&pl, &x, d, 20), fine(&pl, &x, -d, 20));
+            let (ea, eb) = (pl.emf_of(&ahead).1, pl.emf_of(&behind).1);
+            // The acceleration's share, λr·(P/2)·α·f, is what a locked rotor would miss.
+            let (fs, _) = pl.emf_of(&x);
+            let accel = pl.lambda * pl.pp * f[OMEGA] * fs.u.abs().max(fs.v.abs());
+            assert!(
+                accel.abs() > 1.0,
+                "{shape:?}: the rotor accelerates ({accel} V/s)"
+            );
+            for p in Phase::ALL {
+                let want = (ea.get(p) - eb.get(p)) / (2.0 * d);
+                let k = p.index();
+                assert!(
+                    (got[k] - want).abs() < 0.05,
+                    "{shape:?} {p:?}: {} V/s vs {want} V/s",
+                    got[k]
+                );
+            }
+        }
     }
 
     /// The modal step against RK4 with 2000 sub-steps, over a 40 µs step (half the default
