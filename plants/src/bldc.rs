@@ -1228,17 +1228,7 @@ mod tests {
     /// accelerating: against central differences over fine RK4 steps, for every shape.
     #[test]
     fn the_back_emf_rate_follows_the_trajectory() {
-        let shapes = [
-            BackEmfShape::Sinusoidal,
-            BackEmfShape::Harmonic {
-                third: 0.1,
-                fifth: -0.05,
-            },
-            BackEmfShape::Trapezoidal {
-                flat_top_deg: 120.0,
-            },
-        ];
-        for shape in shapes {
+        for shape in emf::SAMPLE_SHAPES {
             let mut params = PlantParams::default();
             params.motor.back_emf = shape;
             let pl = driven_with(params, [0.3, -0.3, 0.0], 3000.0, false);

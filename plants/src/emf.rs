@@ -77,13 +77,18 @@ fn shaped(kind: &BackEmfShape, theta: f64, sin: Abc<f64>) -> Abc<f64> {
             s + third * s3 + fifth * s5
         }),
         BackEmfShape::Trapezoidal { flat_top_deg } => {
-            let ramp = (PI - flat_top_deg.to_radians()) / 2.0;
-            Abc {
-                u: trapezoid(theta, ramp),
-                v: trapezoid(theta - TAU / 3.0, ramp),
-                w: trapezoid(theta + TAU / 3.0, ramp),
-            }
+            let ramp = ramp_of(flat_top_deg);
+            per_phase(theta, |th| trapezoid(th, ramp))
         }
+    }
+}
+
+/// `f` at each phase's angle: θu = θ, θv = θ − 120°, θw = θ + 120°.
+fn per_phase(theta: f64, f: impl Fn(f64) -> f64) -> Abc<f64> {
+    Abc {
+        u: f(theta),
+        v: f(theta - TAU / 3.0),
+        w: f(theta + TAU / 3.0),
     }
 }
 
@@ -101,36 +106,54 @@ pub fn shape_rate_with(kind: &BackEmfShape, theta: f64, (s, c): (f64, f64)) -> A
             c + 3.0 * third * c3 + 5.0 * fifth * c5
         }),
         BackEmfShape::Trapezoidal { flat_top_deg } => {
-            let ramp = (PI - flat_top_deg.to_radians()) / 2.0;
-            Abc {
-                u: trapezoid_rate(theta, ramp),
-                v: trapezoid_rate(theta - TAU / 3.0, ramp),
-                w: trapezoid_rate(theta + TAU / 3.0, ramp),
-            }
+            let ramp = ramp_of(flat_top_deg);
+            per_phase(theta, |th| trapezoid_rate(th, ramp))
         }
+    }
+}
+
+/// The trapezoid's ramp width \[rad\] for a flat top of `flat_top_deg`.
+fn ramp_of(flat_top_deg: f64) -> f64 {
+    (PI - flat_top_deg.to_radians()) / 2.0
+}
+
+/// θ folded onto the trapezoid's symmetry: the distance from the nearest crossing \[rad\],
+/// the half-wave's sign, and whether the distance grows with θ (+1) or shrinks (−1).
+fn fold(theta: f64) -> (f64, f64, f64) {
+    let x = theta.rem_euclid(TAU);
+    let (x, sign) = if x < PI { (x, 1.0) } else { (x - PI, -1.0) };
+    if x < FRAC_PI_2 {
+        (x, sign, 1.0)
+    } else {
+        (PI - x, sign, -1.0)
     }
 }
 
 /// d/dθ of [`trapezoid`]: ±1/ramp on the ramps, 0 on the plateaus.
 fn trapezoid_rate(theta: f64, ramp: f64) -> f64 {
-    let x = theta.rem_euclid(TAU);
-    let (x, sign) = if x < PI { (x, 1.0) } else { (x - PI, -1.0) };
-    let (d, rising) = if x < FRAC_PI_2 {
-        (x, 1.0)
-    } else {
-        (PI - x, -1.0)
-    };
+    let (d, sign, rising) = fold(theta);
     if d < ramp { sign * rising / ramp } else { 0.0 }
 }
 
 /// Odd, half-wave symmetric trapezoid of peak 1 with linear ramps of width `ramp` \[rad\]
 /// centred on the crossings at 0 and π.
 fn trapezoid(theta: f64, ramp: f64) -> f64 {
-    let x = theta.rem_euclid(TAU);
-    let (x, sign) = if x < PI { (x, 1.0) } else { (x - PI, -1.0) };
-    let d = if x < FRAC_PI_2 { x } else { PI - x }; // distance from the nearest crossing
+    let (d, sign, _) = fold(theta);
     sign * (d / ramp).min(1.0)
 }
+
+/// One shape of each kind, for tests.
+#[cfg(test)]
+pub(crate) const SAMPLE_SHAPES: [BackEmfShape; 3] = [
+    BackEmfShape::Sinusoidal,
+    BackEmfShape::Harmonic {
+        third: 0.1,
+        fifth: -0.05,
+    },
+    BackEmfShape::Trapezoidal {
+        flat_top_deg: 120.0,
+    },
+];
 
 #[cfg(test)]
 mod tests {
@@ -164,17 +187,7 @@ mod tests {
 
     #[test]
     fn shape_rates_are_the_derivatives_of_the_shapes() {
-        let shapes = [
-            BackEmfShape::Sinusoidal,
-            BackEmfShape::Harmonic {
-                third: 0.1,
-                fifth: -0.05,
-            },
-            BackEmfShape::Trapezoidal {
-                flat_top_deg: 120.0,
-            },
-        ];
-        for kind in &shapes {
+        for kind in &SAMPLE_SHAPES {
             // Off the trapezoid's corners (every 30° from 0°, and 60° + multiples).
             for k in 0..72 {
                 let th = (k as f64 * 5.0 + 2.5).to_radians();

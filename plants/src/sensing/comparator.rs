@@ -137,9 +137,8 @@ struct Channel {
     /// linear but for a floating leg's back-EMF curvature; A and B \[V\] are the filter
     /// transients at τ = 0.
     poly: [f64; 4],
-    /// Bounds use P's chord over the step, l + β·τ \[V, V/s\], and how far P strays from
-    /// it, within [dev.0, dev.1] \[V\]: as cheap as a linear input, and valid throughout.
-    l: f64,
+    /// Bounds use P's chord over the step, P(0) + β·τ with β \[V/s\], and how far P strays
+    /// from it, within [dev.0, dev.1] \[V\]: as cheap as a linear input, and valid throughout.
     beta: f64,
     dev: (f64, f64),
     a: f64,
@@ -193,7 +192,6 @@ impl Channel {
             x,
             t0,
             poly,
-            l: poly[0],
             beta: poly[1] + h * (poly[2] + h * poly[3]),
             dev,
             a,
@@ -826,7 +824,7 @@ impl ComparatorBank {
     /// by P's deviation from it, and for the transients unless their stationary point lies
     /// inside.
     fn range_ends(c: &Channel, ta: f64, tb: f64, w: [f64; 4], env: f64) -> (f64, f64) {
-        let (l1, l2) = (c.l + c.beta * ta, c.l + c.beta * tb);
+        let (l1, l2) = (c.poly[0] + c.beta * ta, c.poly[0] + c.beta * tb);
         let (ga, gb) = (c.a * w[0] - c.b * w[1], c.a * w[2] - c.b * w[3]);
         (
             l1.min(l2) + c.dev.0 + ga.min(gb) - env,
@@ -895,6 +893,12 @@ mod tests {
 
     const ALL: Abc<bool> = Abc::splat(true);
 
+    /// Updates over [t0, t1] with the terminals held at `v` and the neutral at 0 V.
+    fn hold(c: &mut ComparatorBank, (t0, t1): (f64, f64), v: Abc<f64>, watched: Abc<bool>) {
+        let k = Knot::driven(v, 0.0);
+        c.update(t0, t1, &k, &k, watched);
+    }
+
     /// A noisy comparator sitting on its threshold toggles every few ticks.
     fn chattering() -> ComparatorParams {
         ComparatorParams {
@@ -915,13 +919,7 @@ mod tests {
         let mut long = ComparatorBank::new(&p, 7, &v, 0.0);
         let mut short = ComparatorBank::new(&p, 7, &v, 0.0);
         let n = 2000u64;
-        long.update(
-            0.0,
-            n as f64 * TICK_S,
-            &Knot::driven(v, 0.0),
-            &Knot::driven(v, 0.0),
-            ALL,
-        );
+        hold(&mut long, (0.0, n as f64 * TICK_S), v, ALL);
         let w = Abc::splat(true);
         for k in 0..n {
             // Queried at each instant as the engine would, before the plant moves on.
@@ -934,11 +932,10 @@ mod tests {
                     "tick {k}"
                 );
             }
-            short.update(
-                k as f64 * TICK_S,
-                (k + 1) as f64 * TICK_S,
-                &Knot::driven(v, 0.0),
-                &Knot::driven(v, 0.0),
+            hold(
+                &mut short,
+                (k as f64 * TICK_S, (k + 1) as f64 * TICK_S),
+                v,
                 ALL,
             );
         }
@@ -1040,8 +1037,7 @@ mod tests {
         let run = |second_edge: bool| {
             let mut c = ComparatorBank::new(&p, 1, &v, 0.0);
             c.excite(0.0, 1.0);
-            let k = Knot::driven(v, 0.0);
-            c.update(0.0, end as f64 * TICK_S, &k, &k, Abc::splat(false));
+            hold(&mut c, (0.0, end as f64 * TICK_S), v, Abc::splat(false));
             assert!(c.pending.iter().all(Option::is_some), "scans pending");
             if second_edge {
                 c.excite(end as f64 * TICK_S, 10.0);
@@ -1066,13 +1062,7 @@ mod tests {
         let v = Abc::splat(0.0);
         let mut c = ComparatorBank::new(&p, 7, &v, 0.0);
         let none = Abc::splat(false);
-        c.update(
-            0.0,
-            1000.0 * TICK_S,
-            &Knot::driven(v, 0.0),
-            &Knot::driven(v, 0.0),
-            none,
-        );
+        hold(&mut c, (0.0, 1000.0 * TICK_S), v, none);
         assert!(c.pending.iter().all(Option::is_some), "scans pending");
         // Cut at the step's start, before its first tick: nothing of it remains.
         c.truncate_at(Ticks(0));
@@ -1089,13 +1079,7 @@ mod tests {
         let p = chattering();
         let v = Abc::splat(0.0);
         let mut c = ComparatorBank::new(&p, 7, &v, 0.0);
-        c.update(
-            0.0,
-            1000.0 * TICK_S,
-            &Knot::driven(v, 0.0),
-            &Knot::driven(v, 0.0),
-            ALL,
-        );
+        hold(&mut c, (0.0, 1000.0 * TICK_S), v, ALL);
         let all = Abc::splat(true);
         let first = c.next_visible_change(Ticks(0), all).expect("chatter");
         // Long after it became visible, but unreported: it must still be found.
@@ -1123,13 +1107,7 @@ mod tests {
             w: 0.5,
         };
         let mut c = ComparatorBank::new(&p, 1, &lo, 0.0);
-        c.update(
-            0.0,
-            20e-6,
-            &Knot::driven(hi, 0.0),
-            &Knot::driven(hi, 0.0),
-            ALL,
-        );
+        hold(&mut c, (0.0, 20e-6), hi, ALL);
         let (y, yn) = c.filtered();
         assert!((y.u - 0.5).abs() < 1e-6 && (y.v + 0.5).abs() < 1e-6 && yn.abs() < 1e-12);
         let out = c.outputs_at(Ticks(1000));
