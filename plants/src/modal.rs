@@ -19,10 +19,8 @@
 //! [`Response`] follows that to first order, with P and R polynomials in t.
 
 use crate::circuit::{Conduction, Linearised};
+use crate::emf;
 use drive_core::Abc;
-
-/// sin(φ − 120°) and sin(φ + 120°) are −½·sin φ ∓ (√3/2)·cos φ.
-const SIN_120: f64 = 0.866_025_403_784_438_6;
 
 /// Eigenvalues, eigenvectors and forcing weights of one conduction state.
 #[derive(Copy, Clone, Debug, Default, PartialEq)]
@@ -105,16 +103,12 @@ impl Modal {
         }
         // The forcing must lie in the modes' span (it does: di/dt sums to zero and is zero
         // on open phases), else the modal form would drop part of it.
-        let qm = |col: usize| -> [f64; 3] {
-            // Q·(shape weights of sin φ (col 0) or cos φ (col 1)).
-            let f = if col == 0 {
-                [1.0, -0.5, -0.5]
-            } else {
-                [0.0, -SIN_120, SIN_120]
-            };
+        // Q·(the sinusoid's weights of sin φ, then of cos φ).
+        let qm = |sin_cos: (f64, f64)| -> [f64; 3] {
+            let f = emf::sinusoid(sin_cos).to_array();
             std::array::from_fn(|r| dot(&q[r], &f))
         };
-        let (qs, qc) = (qm(0), qm(1));
+        let (qs, qc) = (qm((1.0, 0.0)), qm((0.0, 1.0)));
         for v in [c, &qs, &qc] {
             let mut rest = *v;
             for wj in &w[..m] {
