@@ -890,6 +890,7 @@ impl ComparatorBank {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use std::f64::consts::TAU;
 
     const ALL: Abc<bool> = Abc::splat(true);
 
@@ -1091,6 +1092,200 @@ mod tests {
             c.next_visible_change(Ticks(0), all)
                 .is_none_or(|t| t > first)
         );
+    }
+
+    /// The comparators by brute force: both filters in closed form at every tick from the
+    /// step's start, the ringing as a phasor re-referred at each excitation, the noise
+    /// sample of each tick, the hysteresis applied tick by tick. Returns the toggles.
+    struct Reference {
+        p: ComparatorParams,
+        seed: u64,
+        y: [f64; 3],
+        y_n: f64,
+        out: [bool; 3],
+        /// Ringing phasor referred to tick `ring_k`.
+        ring: (f64, f64),
+        ring_k: u64,
+        toggles: [Vec<(u64, bool)>; 3],
+    }
+
+    impl Reference {
+        fn rot(&self, dt: f64) -> (f64, f64) {
+            let m = (-dt / self.p.ring_decay_s).exp();
+            let (s, c) = (TAU * self.p.ring_frequency_hz * dt).sin_cos();
+            (m * c, m * s)
+        }
+
+        fn excite(&mut self, t: f64, dv: f64) {
+            let k = Ticks::at_or_after(t).0.0;
+            let a = self.rot((k - self.ring_k) as f64 * TICK_S);
+            let b = self.rot(k as f64 * TICK_S - t);
+            let g = self.p.ring_gain * dv;
+            let z = self.ring;
+            self.ring = (
+                z.0 * a.0 - z.1 * a.1 + g * b.0,
+                z.0 * a.1 + z.1 * a.0 + g * b.1,
+            );
+            self.ring_k = k;
+        }
+
+        /// The ramps from `k0` to `k1` over [t0, t1].
+        fn update(&mut self, (t0, t1): (f64, f64), k0: &Knot, k1: &Knot) {
+            let h = t1 - t0;
+            // y(τ) = u0 + b·(τ − T) + (y0 − u0 + b·T)·e^{−τ/T} for u = u0 + b·τ.
+            let filter = |y0: f64, u0: f64, u1: f64, tf: f64, tau: f64| {
+                let b = (u1 - u0) / h;
+                u0 + b * (tau - tf) + (y0 - u0 + b * tf) * (-tau / tf).exp()
+            };
+            let (tp, tn) = (self.p.phase_filter_tau_s, self.p.neutral_filter_tau_s);
+            let (v0, v1) = (k0.v.to_array(), k1.v.to_array());
+            let first = Ticks::at_or_before(t0).0 + 1;
+            let last = Ticks::at_or_before(t1).0;
+            for k in first..=last {
+                let tau = k as f64 * TICK_S - t0;
+                let yn = filter(self.y_n, k0.vn, k1.vn, tn, tau);
+                let r = self.rot((k - self.ring_k) as f64 * TICK_S);
+                let ring = self.ring.0 * r.1 + self.ring.1 * r.0;
+                for j in 0..3 {
+                    let y = filter(self.y[j], v0[j], v1[j], tp, tau);
+                    let n = noise::uniform(
+                        self.seed,
+                        j as u64,
+                        k / self.p.noise_interval().0,
+                        self.p.noise_v,
+                    );
+                    let s = y - yn - self.p.offset_v.to_array()[j] + ring + n;
+                    let half = self.p.hysteresis_v / 2.0;
+                    if (!self.out[j] && s > half) || (self.out[j] && s < -half) {
+                        self.out[j] = !self.out[j];
+                        self.toggles[j].push((k, self.out[j]));
+                    }
+                }
+            }
+            for j in 0..3 {
+                self.y[j] = filter(self.y[j], v0[j], v1[j], tp, h);
+            }
+            self.y_n = filter(self.y_n, k0.vn, k1.vn, tn, h);
+        }
+
+        fn output_at(&self, j: usize, k: u64, initial: bool) -> bool {
+            self.toggles[j]
+                .iter()
+                .rev()
+                .find(|t| t.0 <= k)
+                .map_or(initial, |t| t.1)
+        }
+    }
+
+    /// A drive-like sequence: steps of whole and fractional ticks, the terminals a few
+    /// millivolts from the neutral and ramping through it, common-mode PWM edges of several
+    /// volts that excite the ringing, some steps cut short. Every toggle the bank finds
+    /// (all watched), or every output read (watched at random, read at each step's end),
+    /// equals the brute-force one.
+    #[test]
+    fn the_scans_find_exactly_the_toggles_of_a_tick_by_tick_evaluation() {
+        let p = ComparatorParams::default();
+        let mut rng = 0x2545_F491_4F6C_DD1Du64;
+        let mut next = move || {
+            rng ^= rng << 13;
+            rng ^= rng >> 7;
+            rng ^= rng << 17;
+            (rng >> 11) as f64 / (1u64 << 53) as f64
+        };
+        for all_watched in [true, false] {
+            let v = Abc::splat(0.0);
+            let seed = 11;
+            let mut bank = ComparatorBank::new(&p, seed, &v, 0.0);
+            let init = Abc::from_fn(|x| -p.offset_v.get(x) > 0.0).to_array();
+            let mut r = Reference {
+                p: p.clone(),
+                seed,
+                y: [0.0; 3],
+                y_n: 0.0,
+                out: init,
+                ring: (0.0, 0.0),
+                ring_k: 0,
+                toggles: [Vec::new(), Vec::new(), Vec::new()],
+            };
+            let (mut t, mut cm) = (0.0, 0.0);
+            let mut diff = [0.0; 3];
+            let mut reads = 0;
+            for step in 0..600 {
+                // A PWM edge now and then: the common mode jumps by up to ±6 V.
+                if step % 7 == 3 {
+                    let dv = 12.0 * (next() - 0.5);
+                    cm += dv;
+                    bank.excite(t, dv);
+                    r.excite(t, dv);
+                }
+                let knot =
+                    |cm: f64, d: [f64; 3]| Knot::driven(Abc::from_array(d.map(|d| cm + d)), cm);
+                let k0 = knot(cm, diff);
+                // Lengths from a tick to 80 µs, a fifth of them ending between ticks.
+                let mut h = (1.0 + (4000.0 * next() * next()).floor()) * TICK_S;
+                if next() < 0.2 {
+                    h += 0.37 * TICK_S;
+                }
+                let slope = 400.0 * (next() - 0.5); // V/s: 20 mV over 50 µs at most
+                let d1 = diff.map(|d| (d + slope * h + 4e-3 * (next() - 0.5)).clamp(-0.03, 0.03));
+                let cm1 = cm + 0.2 * (next() - 0.5);
+                let k1 = knot(cm1, d1);
+                let watched = if all_watched {
+                    ALL
+                } else {
+                    Abc::from_fn(|_| next() < 0.3)
+                };
+                bank.watch(watched);
+                bank.update(t, t + h, &k0, &k1, watched);
+                let first = Ticks::at_or_before(t).0 + 1;
+                let last = Ticks::at_or_before(t + h).0;
+                let cut = (last > first + 2 && next() < 0.15)
+                    .then(|| first + ((last - first) as f64 * next()) as u64);
+                let t1 = match cut {
+                    Some(k) => {
+                        bank.truncate_at(Ticks(k));
+                        // The cut step's inputs at the cut: the same ramps.
+                        let f = (k as f64 * TICK_S - t) / h;
+                        let at = knot(
+                            cm + f * (cm1 - cm),
+                            std::array::from_fn(|j| diff[j] + f * (d1[j] - diff[j])),
+                        );
+                        r.update((t, k as f64 * TICK_S), &k0, &at);
+                        cm += f * (cm1 - cm);
+                        diff = at.v.to_array().map(|v| v - cm);
+                        k as f64 * TICK_S
+                    }
+                    None => {
+                        r.update((t, t + h), &k0, &k1);
+                        (cm, diff) = (cm1, d1);
+                        t + h
+                    }
+                };
+                let at = Ticks::at_or_after(t1).0;
+                bank.catch_up(at);
+                let read = bank.outputs_at(at);
+                let k = at.0.saturating_sub(p.delay().0);
+                for j in 0..3 {
+                    assert_eq!(
+                        read.to_array()[j],
+                        r.output_at(j, k, init[j]),
+                        "channel {j} read at tick {}, step {step}",
+                        at.0
+                    );
+                    reads += 1;
+                }
+                t = t1;
+            }
+            assert_eq!(reads, 1800);
+            let found: usize = r.toggles.iter().map(Vec::len).sum();
+            assert!(found > 300, "few toggles to compare: {found}");
+            if all_watched {
+                for j in 0..3 {
+                    let got: Vec<_> = bank.hist[j].toggles.iter().copied().collect();
+                    assert_eq!(got, r.toggles[j], "channel {j}");
+                }
+            }
+        }
     }
 
     #[test]
