@@ -201,22 +201,17 @@ impl Channel {
     }
 }
 
-/// One channel's scan of one step, resumable: the next tick to decide and the factors
-/// there. A channel nobody watches is scanned only as far as someone reads it.
+/// One channel's scan of one step, resumable: the next tick to decide. A channel nobody
+/// watches is scanned only as far as someone reads it.
 #[derive(Clone, Debug)]
 struct Cursor {
     c: Channel,
     k: u64,
     k_end: u64,
-    /// e^{−τ/τp}, e^{−τ/τn} and the ringing phasor at tick `k`, unless `stale` (then the
-    /// phasor is an earlier one, whose magnitude still bounds the ringing).
-    dp: f64,
-    dn: f64,
-    z: (f64, f64),
-    stale: bool,
-    /// e^{−τ/τp}, e^{−τ/τn} at `k_end`.
-    w_end: [f64; 2],
 }
+
+/// The longest block of noise segments [`ComparatorBank::scan_to`] bounds at once.
+const MAX_SPAN: u64 = 1 << 32;
 
 /// The three comparators, their filters, the coupled ringing and the noise.
 #[derive(Clone, Debug)]
@@ -238,14 +233,8 @@ pub struct ComparatorBank {
     q_p: f64,
     q_n: f64,
     q_ring: (f64, f64),
-    /// The decay factors over one noise interval (filters, ringing envelope).
-    q_seg: (f64, f64),
-    /// The ringing phasor's rotation and decay over one noise interval.
-    q_seg_rot: (f64, f64),
     /// Last step length and its decay factors e^{−h/τp}, e^{−h/τn}.
     decay_cache: (f64, f64, f64),
-    /// Decay factors over one noise interval less one tick.
-    q_seg_m1: (f64, f64),
     /// Powers of the per-tick filter decays and ringing rotation.
     pow_p: TickPowers,
     pow_n: TickPowers,
@@ -308,26 +297,6 @@ impl ComparatorBank {
                 std::f64::consts::TAU * p.ring_frequency_hz,
             ),
             pow_env: TickPowers::new(-1.0 / p.ring_decay_s, 0.0),
-            q_seg_m1: {
-                let n = (p.noise_interval().0 - 1) as f64 * TICK_S;
-                (
-                    (-n / p.phase_filter_tau_s).exp(),
-                    (-n / p.neutral_filter_tau_s).exp(),
-                )
-            },
-            q_seg_rot: {
-                let n = p.noise_interval().0 as f64 * TICK_S;
-                let d = (-n / p.ring_decay_s).exp();
-                let (sn, cs) = (std::f64::consts::TAU * p.ring_frequency_hz * n).sin_cos();
-                (d * cs, d * sn)
-            },
-            q_seg: {
-                let n = p.noise_interval().0 as f64 * TICK_S;
-                (
-                    (-n / p.phase_filter_tau_s).exp(),
-                    (-n / p.neutral_filter_tau_s).exp(),
-                )
-            },
             y: *v_term,
             y_n: v_n,
             out,
@@ -411,13 +380,19 @@ impl ComparatorBank {
     /// The ringing's envelope at instant `t` (not before the excitation): by table where
     /// `t` is a tick, as the engine's instants mostly are.
     fn ring_envelope(&self, t: f64) -> f64 {
+        match Ticks::at_or_after(t) {
+            (k, true) if k.0 >= self.ring_k => self.ring_envelope_at(k.0),
+            _ if self.ring_mag == 0.0 => 0.0,
+            _ => self.ring_mag * (-(t - self.ring_t) / self.ring_decay).exp(),
+        }
+    }
+
+    /// The ringing's envelope at tick `k` (not before the excitation), by table.
+    fn ring_envelope_at(&self, k: u64) -> f64 {
         if self.ring_mag == 0.0 {
             return 0.0;
         }
-        match Ticks::at_or_after(t) {
-            (k, true) if k.0 >= self.ring_k => self.ring_mag * self.pow_env.real(k.0 - self.ring_k),
-            _ => self.ring_mag * (-(t - self.ring_t) / self.ring_decay).exp(),
-        }
+        self.ring_mag * self.pow_env.real(k.saturating_sub(self.ring_k))
     }
 
     /// Advances the filters over [t0, t1] with terminal and neutral voltages interpolated
@@ -455,8 +430,6 @@ impl ComparatorBank {
         let w = [1.0, 1.0, eh_p, eh_n];
         // Decay factors at the step's first tick, shared by the channels.
         let mut first: Option<(f64, f64)> = None;
-        // The ringing phasor at the first tick, shared by the channels too.
-        let mut z0: Option<(f64, f64)> = None;
         let (v0, v1) = (k0.v.to_array(), k1.v.to_array());
         let (r0, r1) = (k0.emf_rate.to_array(), k1.emf_rate.to_array());
         let (y, offset) = (self.y.to_array(), self.offset.to_array());
@@ -493,18 +466,10 @@ impl ComparatorBank {
                         ((-ta / self.tau_p).exp(), (-ta / self.tau_n).exp())
                     }
                 });
-                let end = self.decay(&c, k_end);
-                let z = *z0.get_or_insert_with(|| self.ring_at(k_start));
-                let (dp, dn) = c.base;
                 let mut cur = Cursor {
                     c,
                     k: k_start,
                     k_end,
-                    dp,
-                    dn,
-                    z,
-                    stale: false,
-                    w_end: [end.0, end.1],
                 };
                 if watched.get(x) {
                     self.scan_to(&mut cur, k_end);
@@ -551,106 +516,90 @@ impl ComparatorBank {
 
     /// Walks the ticks of `cur`'s step up to `k_stop` (at most its last) where a toggle is
     /// possible, and leaves `cur` at the next tick.
+    ///
+    /// Blocks of noise segments are ruled out whole where the bounds allow (with the noise
+    /// anywhere in its range), the block doubling after each one ruled out and halving
+    /// after each one that is not; a single segment is bounded with its own noise sample
+    /// and walked tick by tick if that fails. So the segments where a toggle is possible
+    /// are found with a number of bounds logarithmic in the step's length. A block may
+    /// reach past `k_stop`: ticks ruled out there need no walk when the scan resumes.
     fn scan_to(&mut self, cur: &mut Cursor, k_stop: u64) {
-        if cur.stale {
-            (cur.dp, cur.dn) = self.decay(&cur.c, cur.k);
-            cur.z = self.ring_at(cur.k);
-            cur.stale = false;
-        }
         let c = &cur.c;
         let x = c.x;
         let ch = x.index();
         let key = noise::channel_key(self.seed, ch as u64);
         self.scans += 1;
         let (k_end, stop) = (cur.k_end, k_stop.min(cur.k_end));
+        let (a, n) = (self.noise_a, self.noise_n);
         let mut k = cur.k;
-        let t_end = k_end as f64 * TICK_S - c.t0;
-        let w_end = cur.w_end;
-        // Decay factors and the ringing phasor at the current tick, carried from segment to
-        // segment by multiplication. The phasor's magnitude is the ringing envelope, which
-        // bounds the ringing from there on.
-        let (mut dp, mut dn, mut z) = (cur.dp, cur.dn, cur.z);
-        let mut check_rest = true;
-        let mut rest = (0.0, 0.0);
-        // Quiet segments before the rest of the step is bounded again: few at first (the
-        // ringing and the filter transients decay within a few segments), doubling while the
-        // bound keeps failing to end the scan.
-        let mut quiet = 0u32;
-        let mut recheck = 2u32;
-        let mut m = k / self.noise_n; // noise sample index, one per segment
+        // The first block is the rest of the step: usually ruled out at once.
+        let mut span = (k_end / n - k / n + 1).min(MAX_SPAN);
         while k <= stop {
-            let ta = k as f64 * TICK_S - c.t0;
-            let env = (z.0 * z.0 + z.1 * z.1).sqrt();
-            if check_rest || quiet >= recheck {
-                recheck = if check_rest { 2 } else { (2 * recheck).min(64) };
-                let r = self.range(c, ta, t_end, [dp, dn, w_end[0], w_end[1]], env);
-                if !self.can_toggle(x, r.0, r.1, -self.noise_a, self.noise_a) {
-                    cur.k = k_end + 1; // nothing more can happen in this step
-                    return;
-                }
-                rest = r;
-                check_rest = false;
-                quiet = 0;
-            }
-            let seg_end = ((m + 1) * self.noise_n - 1).min(stop);
-            let n = noise::uniform_keyed(key, m, self.noise_a);
-            let span = seg_end - k;
-            let full = span + 1 == self.noise_n;
-            quiet += 1;
-            self.segments += 1;
-            // Cheap test against the rest-of-step range before bounding this segment.
-            let busy = self.can_toggle(x, rest.0, rest.1, n, n) && {
-                let tb = seg_end as f64 * TICK_S - c.t0;
-                let (dpb, dnb) = if full {
-                    (dp * self.q_seg_m1.0, dn * self.q_seg_m1.1)
+            let m = k / n; // noise sample index, one per segment
+            if span > 1 {
+                let e = m.saturating_add(span).saturating_mul(n).saturating_sub(1);
+                let e = e.min(k_end);
+                if self.may_toggle_over(c, k, e, -a, a) {
+                    span /= 2;
                 } else {
-                    (dp * self.pow_p.real(span), dn * self.pow_n.real(span))
-                };
-                self.may_toggle(c, ta, tb, [dp, dn, dpb, dnb], env, n, n)
-            };
-            if busy {
-                // Walk the ticks with per-tick factors instead of exp/sin at every tick.
-                self.ticks_scanned += span + 1;
-                check_rest = true; // after a busy segment, see whether the rest is quiet
-                let mut ep = c.a * dp;
-                let mut en = c.b * dn;
-                let mut zk = z;
-                let poly = [c.poly[0] + n, c.poly[1], c.poly[2], c.poly[3]];
-                let (half_h, qp, qn, qr) = (self.half_h, self.q_p, self.q_n, self.q_ring);
-                let ringing = z != (0.0, 0.0);
-                let mut out = self.out.get(x);
-                let mut tau = ta;
-                for kk in k..=seg_end {
-                    let s = horner(&poly, tau) + ep - en + zk.1;
-                    if (!out && s > half_h) || (out && s < -half_h) {
-                        out = !out;
-                        self.hist[ch].push(kk, out);
-                        self.toggles += 1;
-                        check_rest = true;
-                    }
-                    ep *= qp;
-                    en *= qn;
-                    if ringing {
-                        zk = (zk.0 * qr.0 - zk.1 * qr.1, zk.0 * qr.1 + zk.1 * qr.0);
-                    }
-                    tau += TICK_S;
+                    k = e + 1;
+                    span = (2 * span).min(MAX_SPAN);
                 }
-                *self.out.get_mut(x) = out;
+                continue;
+            }
+            let seg_end = ((m + 1) * n - 1).min(stop);
+            let noise = noise::uniform_keyed(key, m, a);
+            self.segments += 1;
+            if self.may_toggle_over(c, k, seg_end, noise, noise) {
+                self.walk(c, k, seg_end, noise);
+                span = 1; // the next segment is likely busy too
+            } else {
+                span = 2;
             }
             k = seg_end + 1;
-            m += 1;
-            if full {
-                dp *= self.q_seg.0;
-                dn *= self.q_seg.1;
-                let q = self.q_seg_rot;
-                z = (z.0 * q.0 - z.1 * q.1, z.0 * q.1 + z.1 * q.0);
-            } else if k <= k_end {
-                dp *= self.pow_p.real(span + 1);
-                dn *= self.pow_n.real(span + 1);
-                z = self.ring_at(k);
-            }
         }
-        (cur.k, cur.dp, cur.dn, cur.z) = (k, dp, dn, z);
+        cur.k = k;
+    }
+
+    /// Decides ticks `k..=last` of `c`'s step one by one, with per-tick factors instead of
+    /// an exp and a sincos at every tick, recording each toggle.
+    fn walk(&mut self, c: &Channel, k: u64, last: u64, noise: f64) {
+        let (x, ch) = (c.x, c.x.index());
+        self.ticks_scanned += last - k + 1;
+        let (dp, dn) = self.decay(c, k);
+        let mut ep = c.a * dp;
+        let mut en = c.b * dn;
+        let mut zk = self.ring_at(k);
+        let ringing = zk != (0.0, 0.0);
+        let poly = [c.poly[0] + noise, c.poly[1], c.poly[2], c.poly[3]];
+        let (half_h, qp, qn, qr) = (self.half_h, self.q_p, self.q_n, self.q_ring);
+        let mut out = self.out.get(x);
+        let mut tau = k as f64 * TICK_S - c.t0;
+        for kk in k..=last {
+            let s = horner(&poly, tau) + ep - en + zk.1;
+            if (!out && s > half_h) || (out && s < -half_h) {
+                out = !out;
+                self.hist[ch].push(kk, out);
+                self.toggles += 1;
+            }
+            ep *= qp;
+            en *= qn;
+            if ringing {
+                zk = (zk.0 * qr.0 - zk.1 * qr.1, zk.0 * qr.1 + zk.1 * qr.0);
+            }
+            tau += TICK_S;
+        }
+        *self.out.get_mut(x) = out;
+    }
+
+    /// Whether `c`'s output may toggle at a tick in `a..=b` of its step, with noise in
+    /// [n_lo, n_hi]: the filter decays at both ends, the ringing's envelope at `a`.
+    fn may_toggle_over(&self, c: &Channel, a: u64, b: u64, n_lo: f64, n_hi: f64) -> bool {
+        let (pa, na) = self.decay(c, a);
+        let (pb, nb) = self.decay(c, b);
+        let (ta, tb) = (a as f64 * TICK_S - c.t0, b as f64 * TICK_S - c.t0);
+        let env = self.ring_envelope_at(a);
+        self.may_toggle(c, ta, tb, [pa, na, pb, nb], env, n_lo, n_hi)
     }
 
     /// The output over ticks `a..=b` of `cur`'s step if the comparator input is beyond a
@@ -659,34 +608,16 @@ impl ComparatorBank {
     fn certain_over(&self, cur: &Cursor, a: u64, b: u64) -> Option<bool> {
         let c = &cur.c;
         let (ta, tb) = (a as f64 * TICK_S - c.t0, b as f64 * TICK_S - c.t0);
-        let (pa, na) = self.decay_at(cur, a);
-        let w = if a == b {
-            [pa, na, pa, na]
-        } else {
-            let (pb, nb) = self.decay_at(cur, b);
-            [pa, na, pb, nb]
-        };
-        // The ringing only decays after the cursor's tick.
-        let env = (cur.z.0 * cur.z.0 + cur.z.1 * cur.z.1).sqrt();
-        let (lo, hi) = self.range(c, ta, tb, w, env);
+        let (pa, na) = self.decay(c, a);
+        let (pb, nb) = if a == b { (pa, na) } else { self.decay(c, b) };
+        let env = self.ring_envelope_at(a);
+        let (lo, hi) = self.range(c, ta, tb, [pa, na, pb, nb], env);
         if lo - self.noise_a > self.half_h {
             Some(true)
         } else if hi + self.noise_a < -self.half_h {
             Some(false)
         } else {
             None
-        }
-    }
-
-    /// e^{−τ/τp}, e^{−τ/τn} at tick `k` of `cur`'s step: the cursor's own factors where it
-    /// has them (its next tick, its step's last), else computed.
-    fn decay_at(&self, cur: &Cursor, k: u64) -> (f64, f64) {
-        if k == cur.k_end {
-            (cur.w_end[0], cur.w_end[1])
-        } else if k == cur.k && !cur.stale {
-            (cur.dp, cur.dn)
-        } else {
-            self.decay(&cur.c, k)
         }
     }
 
@@ -700,7 +631,6 @@ impl ComparatorBank {
             self.toggles += 1;
         }
         cur.k = k + 1;
-        cur.stale = true; // the factors are recomputed only if the scan resumes
     }
 
     /// Brings the channels nobody watches up to what is read at instant `at` (the output at
@@ -754,12 +684,6 @@ impl ComparatorBank {
             };
             if k_stop < cur.k_end {
                 cur.k_end = k_stop;
-                if cur.k > k_stop {
-                    continue; // cut before the next tick: nothing left to decide
-                }
-                // Cut short: the end's factors belong to the new end.
-                let end = self.decay(&cur.c, k_stop);
-                cur.w_end = [end.0, end.1];
             }
             if cur.k > cur.k_end {
                 continue;
