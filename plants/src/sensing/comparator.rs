@@ -1189,10 +1189,10 @@ mod tests {
                 bank.catch_up(at);
                 let read = bank.outputs_at(at);
                 let k = at.0.saturating_sub(p.delay().0);
-                for j in 0..3 {
+                for (j, (got, &initial)) in read.to_array().into_iter().zip(&init).enumerate() {
                     assert_eq!(
-                        read.to_array()[j],
-                        r.output_at(j, k, init[j]),
+                        got,
+                        r.output_at(j, k, initial),
                         "channel {j} read at tick {}, step {step}",
                         at.0
                     );
