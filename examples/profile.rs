@@ -36,7 +36,7 @@ fn main() {
         eprintln!("error: {err}");
         std::process::exit(1);
     }
-    let (p0, c0) = (e.plant.stats(), e.plant.comparators().clone());
+    let (p0, c0) = (e.plant.stats(), e.plant.comparators().work());
     // A handful of reasons: a linear search is cheaper inside the timed second than hashing.
     let mut reasons: Vec<(StopReason, u64)> = Vec::with_capacity(8);
     let wall = Instant::now();
@@ -46,7 +46,7 @@ fn main() {
         eprintln!("error: {err}");
         std::process::exit(1);
     }
-    let (p1, c1) = (e.plant.stats(), e.plant.comparators());
+    let (p1, c1) = (e.plant.stats(), e.plant.comparators().work());
     let mut reasons: Vec<_> = reasons
         .into_iter()
         .map(|(r, n)| (format!("{r:?}"), n))

@@ -130,7 +130,7 @@ struct Channel {
     /// Start of the step \[s\].
     t0: f64,
     /// The step's first tick and e^{−τ/τp}, e^{−τ/τn} there: the decays at a later tick
-    /// follow by table (see [`ComparatorBank::decay`]).
+    /// follow by table (see [`Front::decay`]).
     k_s: u64,
     base: (f64, f64),
     /// P's coefficients \[V, V/s, …\]: the paths' particular solutions less the offset,
@@ -210,12 +210,32 @@ struct Cursor {
     k_end: u64,
 }
 
-/// The longest block of noise segments [`ComparatorBank::scan_to`] bounds at once.
+/// The longest block of noise segments [`Front::scan_to`] bounds at once.
 const MAX_SPAN: u64 = 1 << 32;
 
 /// The three comparators, their filters, the coupled ringing and the noise.
 #[derive(Clone, Debug)]
 pub struct ComparatorBank {
+    front: Front,
+    /// Scans of the present step not yet walked, for channels nobody watches.
+    pending: [Option<Cursor>; 3],
+}
+
+/// The scans' work counters (for profiling).
+#[derive(Copy, Clone, Debug, Default, PartialEq, Eq)]
+pub struct ScanWork {
+    /// Scans started.
+    pub scans: u64,
+    /// Ticks evaluated one by one.
+    pub ticks_scanned: u64,
+    /// Noise segments bounded one by one.
+    pub segments: u64,
+}
+
+/// The front end and the outputs: everything but the scans left pending, which are kept
+/// apart so that a scan can run on its cursor in place.
+#[derive(Clone, Debug)]
+struct Front {
     tau_p: f64,
     tau_n: f64,
     /// 1/τp, 1/τn [1/s].
@@ -245,8 +265,6 @@ pub struct ComparatorBank {
     y_n: f64,
     out: Abc<bool>,
     hist: [History; 3],
-    /// Scans of the present step not yet walked, for channels nobody watches.
-    pending: [Option<Cursor>; 3],
     /// Ringing phasor (re, im) referred to `ring_t`, the tick `ring_k`:
     /// ring(t) = Im(Z·e^{(−1/τr + jω)(t − ring_t)}).
     ring: (f64, f64),
@@ -254,12 +272,7 @@ pub struct ComparatorBank {
     ring_k: u64,
     ring_mag: f64,
     toggles: u64,
-    /// Ticks evaluated one by one (work counter).
-    pub ticks_scanned: u64,
-    /// Scans started (work counter).
-    pub scans: u64,
-    /// Noise segments visited by scans (work counter).
-    pub segments: u64,
+    work: ScanWork,
     /// Filter segments of the last update (phase paths, neutral) and its start time.
     last: ([(Foh, Option<CubicRc>); 3], Foh, f64),
 }
@@ -269,7 +282,7 @@ impl ComparatorBank {
     pub fn new(p: &ComparatorParams, seed: u64, v_term: &Abc<f64>, v_n: f64) -> Self {
         let offset = p.offset_v;
         let out = Abc::from_fn(|x| v_term.get(x) - v_n - offset.get(x) > 0.0);
-        ComparatorBank {
+        let front = Front {
             tau_p: p.phase_filter_tau_s,
             tau_n: p.neutral_filter_tau_s,
             inv_tau: (1.0 / p.phase_filter_tau_s, 1.0 / p.neutral_filter_tau_s),
@@ -305,50 +318,246 @@ impl ComparatorBank {
                 History::new(out.v),
                 History::new(out.w),
             ],
-            pending: [None, None, None],
             ring: (0.0, 0.0),
             ring_t: 0.0,
             ring_k: 0,
             ring_mag: 0.0,
             toggles: 0,
-            ticks_scanned: 0,
-            scans: 0,
-            segments: 0,
+            work: ScanWork::default(),
             last: (
                 [(Foh::new(0.0, 0.0, 0.0, 0.0, 1.0), None); 3],
                 Foh::new(0.0, 0.0, 0.0, 0.0, 1.0),
                 0.0,
             ),
+        };
+        ComparatorBank {
+            front,
+            pending: [None, None, None],
         }
     }
 
     /// Adds ringing excited by a switching-node step of `dv` volts at time `t`.
     pub fn excite(&mut self, t: f64, dv: f64) {
-        if self.ring_gain == 0.0 || dv == 0.0 {
+        if self.front.ring_gain == 0.0 || dv == 0.0 {
             return;
         }
         // Every tick up to this edge is decided with the ringing as it was: a scan left
         // pending would otherwise see this excitation extrapolated backwards, growing as
         // e^{+t/τr} before the edge that causes it.
         self.finish_pending(u64::MAX);
+        let f = &mut self.front;
         // Referred to the tick at or after t (the engine's instants are ticks already).
         let k = Ticks::at_or_after(t).0.0;
         let lead = k as f64 * TICK_S - t;
-        let (re, im) = self.ring_at(k);
+        let (re, im) = f.ring_at(k);
         let (dr, di) = if lead > 0.0 {
-            let d = (-lead / self.ring_decay).exp();
-            let (sn, cs) = (self.ring_w * lead).sin_cos();
+            let d = (-lead / f.ring_decay).exp();
+            let (sn, cs) = (f.ring_w * lead).sin_cos();
             (d * cs, d * sn)
         } else {
             (1.0, 0.0)
         };
-        let g = self.ring_gain * dv;
-        self.ring = (re + g * dr, im + g * di);
-        self.ring_mag = self.ring.0.hypot(self.ring.1);
-        self.ring_k = k;
-        self.ring_t = k as f64 * TICK_S;
+        let g = f.ring_gain * dv;
+        f.ring = (re + g * dr, im + g * di);
+        f.ring_mag = f.ring.0.hypot(f.ring.1);
+        f.ring_k = k;
+        f.ring_t = k as f64 * TICK_S;
     }
 
+    /// Advances the filters over [t0, t1] with terminal and neutral voltages interpolated
+    /// between `k0` and `k1` (see [`Knot`]), recording every output toggle on the tick grid:
+    /// now for the `watched` channels, as far as they are read for the others (see
+    /// [`ComparatorBank::catch_up`]).
+    pub fn update(&mut self, t0: f64, t1: f64, k0: &Knot, k1: &Knot, watched: Abc<bool>) {
+        let h = t1 - t0;
+        if h <= 0.0 {
+            return;
+        }
+        self.finish_pending(u64::MAX);
+        let f = &mut self.front;
+        let mut env0 = f.ring_envelope(t0);
+        if f.ring_mag != 0.0 && env0 < 1e-9 {
+            // Decayed below a nanovolt: drop it so later bounds skip the envelope.
+            f.ring = (0.0, 0.0);
+            f.ring_mag = 0.0;
+            env0 = 0.0;
+        }
+        // One division per step: the four filter inputs' slopes share 1/h.
+        let inv_h = 1.0 / h;
+        let dvn = (k1.vn - k0.vn) * inv_h;
+        let fn_ = Foh::ramp(f.y_n, k0.vn, dvn, f.tau_n);
+        let k_start = Ticks::at_or_before(t0).0 + 1;
+        let k_end = Ticks::at_or_before(t1).0;
+        // Steps repeat their lengths (PWM half-periods, the solver's longest step): cache;
+        // a length of whole ticks (most are) by table.
+        if f.decay_cache.0 != h {
+            f.decay_cache = match Ticks::at_or_after(h) {
+                (n, true) => (h, f.pow_p.real(n.0), f.pow_n.real(n.0)),
+                _ => (h, (-h / f.tau_p).exp(), (-h / f.tau_n).exp()),
+            };
+        }
+        let (_, eh_p, eh_n) = f.decay_cache;
+        let w = [1.0, 1.0, eh_p, eh_n];
+        // Decay factors at the step's first tick, shared by the channels.
+        let mut first: Option<(f64, f64)> = None;
+        let (v0, v1) = (k0.v.to_array(), k1.v.to_array());
+        let (r0, r1) = (k0.emf_rate.to_array(), k1.emf_rate.to_array());
+        let (y, offset) = (f.y.to_array(), f.offset.to_array());
+        let mut y_end = y;
+        for x in Phase::ALL {
+            let j = x.index();
+            let chord = (v1[j] - v0[j]) * inv_h;
+            let fx = Foh::ramp(y[j], v0[j], chord, f.tau_p);
+            // A floating leg's input is the neutral's chord plus its back-EMF's Hermite
+            // cubic: its chord plus a cubic vanishing at both ends, filtered from rest.
+            let bend = match (r0[j], r1[j]) {
+                (Some(d0), Some(d1)) => {
+                    let q = hermite(inv_h, (0.0, dvn + d0 - chord), (0.0, dvn + d1 - chord));
+                    Some(CubicRc::new(0.0, 0.0, q, f.tau_p))
+                }
+                _ => None,
+            };
+            let mut c = Channel::new(x, t0, (&fx, bend.as_ref(), &fn_), f.inv_tau, offset[j], h);
+            if k_start <= k_end && f.may_toggle(&c, 0.0, h, w, env0, -f.noise_a, f.noise_a) {
+                c.k_s = k_start;
+                c.base = *first.get_or_insert_with(|| {
+                    let ta = k_start as f64 * TICK_S - t0;
+                    if (ta - TICK_S).abs() < 1e-6 * TICK_S {
+                        (f.q_p, f.q_n)
+                    } else {
+                        ((-ta / f.tau_p).exp(), (-ta / f.tau_n).exp())
+                    }
+                });
+                let cur = Cursor {
+                    c,
+                    k: k_start,
+                    k_end,
+                };
+                if watched.get(x) {
+                    f.scan_to(&mut { cur }, k_end);
+                } else {
+                    self.pending[j] = Some(cur);
+                }
+            }
+            y_end[j] = fx.at_decayed(h, w[2]) + bend.map_or(0.0, |b| b.at_decayed(h, w[2]));
+            f.last.0[j] = (fx, bend);
+        }
+        f.y = Abc::from_array(y_end);
+        f.y_n = fn_.at_decayed(h, w[3]);
+        f.last.1 = fn_;
+        f.last.2 = t0;
+    }
+
+    /// Cuts the last update short at `t` (a tick instant inside it): toggles after `t` are
+    /// forgotten and the filters take their values at `t`.
+    pub fn truncate_at(&mut self, t: Ticks) {
+        self.finish_pending(t.0);
+        let f = &mut self.front;
+        let tau = t.seconds() - f.last.2;
+        for x in Phase::ALL {
+            let (fx, bend) = &f.last.0[x.index()];
+            *f.y.get_mut(x) = fx.at(tau) + bend.map_or(0.0, |b| b.at(tau));
+            let h = &mut f.hist[x.index()];
+            f.toggles -= h.truncate_after(t.0);
+            *f.out.get_mut(x) = h.newest().map_or(h.base, |t| t.1);
+        }
+        f.y_n = f.last.1.at(tau);
+    }
+
+    /// Brings the channels nobody watches up to what is read at instant `at` (the output at
+    /// `at` − delay). Where the input is certainly beyond a threshold at that tick, the
+    /// ticks before it need not be walked: what is read is the same.
+    pub fn catch_up(&mut self, at: Ticks) {
+        let q = at.0.saturating_sub(self.front.delay);
+        let f = &mut self.front;
+        for slot in &mut self.pending {
+            let Some(cur) = slot else { continue };
+            if cur.k <= q.min(cur.k_end) {
+                let q = q.min(cur.k_end);
+                // Usually the input stays beyond the threshold for the rest of the step
+                // (a driven leg between PWM edges): then the step is done with.
+                if let Some(level) = f.certain_over(cur, q, cur.k_end) {
+                    f.settle_at(cur, q, level);
+                    cur.k = cur.k_end + 1;
+                } else {
+                    // Else the tick read alone (when it is not the step's last: just tried).
+                    match (q < cur.k_end).then(|| f.certain_over(cur, q, q)).flatten() {
+                        Some(level) => f.settle_at(cur, q, level),
+                        None => f.scan_to(cur, q),
+                    }
+                }
+            }
+            if cur.k > cur.k_end {
+                *slot = None;
+            }
+        }
+    }
+
+    /// Walks the rest of the present step for the `watched` channels: their changes are
+    /// looked for tick by tick from now on.
+    pub fn watch(&mut self, watched: Abc<bool>) {
+        for x in Phase::ALL.into_iter().filter(|&x| watched.get(x)) {
+            let slot = &mut self.pending[x.index()];
+            if let Some(cur) = slot {
+                self.front.scan_to(cur, u64::MAX);
+                *slot = None;
+            }
+        }
+    }
+
+    /// Ends the pending scans at tick `k_stop` (or their step's end): every tick a later
+    /// read can reach (from the end − delay on) is decided exactly, or known.
+    fn finish_pending(&mut self, k_stop: u64) {
+        let f = &mut self.front;
+        for slot in &mut self.pending {
+            let Some(cur) = slot else { continue };
+            cur.k_end = cur.k_end.min(k_stop);
+            if cur.k <= cur.k_end {
+                let a = cur.k.max(cur.k_end.saturating_sub(f.delay));
+                match f.certain_over(cur, a, cur.k_end) {
+                    Some(level) => f.settle_at(cur, a, level),
+                    None => f.scan_to(cur, cur.k_end),
+                }
+            }
+            *slot = None;
+        }
+    }
+
+    /// Forgets toggles no query can reach any more: queries come at `now` or later, so
+    /// nothing before `now` − delay is read, except a change not yet reported to the
+    /// controller (visible at `unreported`), which must still be found.
+    pub fn forget_history(&mut self, now: Ticks, unreported: Option<Ticks>) {
+        self.front.forget_history(now, unreported)
+    }
+
+    /// Outputs as seen after the propagation delay at instant `at`.
+    pub fn outputs_at(&self, at: Ticks) -> Abc<bool> {
+        self.front.outputs_at(at)
+    }
+
+    /// Earliest instant after `after` at which a watched output changes (delay included).
+    pub fn next_visible_change(&self, after: Ticks, watch: Abc<bool>) -> Option<Ticks> {
+        self.front.next_visible_change(after, watch)
+    }
+
+    /// Toggles found so far (all channels). Toggles of an unwatched channel that no read
+    /// needed walked (see [`ComparatorBank::catch_up`]) are not counted.
+    pub fn toggle_count(&self) -> u64 {
+        self.front.toggles
+    }
+
+    /// Filter outputs (phase paths, neutral path) \[V\], for traces.
+    pub fn filtered(&self) -> (Abc<f64>, f64) {
+        (self.front.y, self.front.y_n)
+    }
+
+    /// The scans' work so far.
+    pub fn work(&self) -> ScanWork {
+        self.front.work
+    }
+}
+
+impl Front {
     /// The ringing phasor at tick `k`, not before the last excitation (see
     /// [`ComparatorBank::excite`]): by table.
     fn ring_at(&self, k: u64) -> (f64, f64) {
@@ -395,101 +604,10 @@ impl ComparatorBank {
         self.ring_mag * self.pow_env.real(k.saturating_sub(self.ring_k))
     }
 
-    /// Advances the filters over [t0, t1] with terminal and neutral voltages interpolated
-    /// between `k0` and `k1` (see [`Knot`]), recording every output toggle on the tick grid:
-    /// now for the `watched` channels, as far as they are read for the others (see
-    /// [`ComparatorBank::catch_up`]).
-    pub fn update(&mut self, t0: f64, t1: f64, k0: &Knot, k1: &Knot, watched: Abc<bool>) {
-        let h = t1 - t0;
-        if h <= 0.0 {
-            return;
-        }
-        self.finish_pending(u64::MAX);
-        let mut env0 = self.ring_envelope(t0);
-        if self.ring_mag != 0.0 && env0 < 1e-9 {
-            // Decayed below a nanovolt: drop it so later bounds skip the envelope.
-            self.ring = (0.0, 0.0);
-            self.ring_mag = 0.0;
-            env0 = 0.0;
-        }
-        // One division per step: the four filter inputs' slopes share 1/h.
-        let inv_h = 1.0 / h;
-        let dvn = (k1.vn - k0.vn) * inv_h;
-        let fn_ = Foh::ramp(self.y_n, k0.vn, dvn, self.tau_n);
-        let k_start = Ticks::at_or_before(t0).0 + 1;
-        let k_end = Ticks::at_or_before(t1).0;
-        // Steps repeat their lengths (PWM half-periods, the solver's longest step): cache;
-        // a length of whole ticks (most are) by table.
-        if self.decay_cache.0 != h {
-            self.decay_cache = match Ticks::at_or_after(h) {
-                (n, true) => (h, self.pow_p.real(n.0), self.pow_n.real(n.0)),
-                _ => (h, (-h / self.tau_p).exp(), (-h / self.tau_n).exp()),
-            };
-        }
-        let (_, eh_p, eh_n) = self.decay_cache;
-        let w = [1.0, 1.0, eh_p, eh_n];
-        // Decay factors at the step's first tick, shared by the channels.
-        let mut first: Option<(f64, f64)> = None;
-        let (v0, v1) = (k0.v.to_array(), k1.v.to_array());
-        let (r0, r1) = (k0.emf_rate.to_array(), k1.emf_rate.to_array());
-        let (y, offset) = (self.y.to_array(), self.offset.to_array());
-        let mut y_end = y;
-        for x in Phase::ALL {
-            let j = x.index();
-            let chord = (v1[j] - v0[j]) * inv_h;
-            let fx = Foh::ramp(y[j], v0[j], chord, self.tau_p);
-            // A floating leg's input is the neutral's chord plus its back-EMF's Hermite
-            // cubic: its chord plus a cubic vanishing at both ends, filtered from rest.
-            let bend = match (r0[j], r1[j]) {
-                (Some(d0), Some(d1)) => {
-                    let q = hermite(inv_h, (0.0, dvn + d0 - chord), (0.0, dvn + d1 - chord));
-                    Some(CubicRc::new(0.0, 0.0, q, self.tau_p))
-                }
-                _ => None,
-            };
-            let mut c = Channel::new(
-                x,
-                t0,
-                (&fx, bend.as_ref(), &fn_),
-                self.inv_tau,
-                offset[j],
-                h,
-            );
-            if k_start <= k_end && self.may_toggle(&c, 0.0, h, w, env0, -self.noise_a, self.noise_a)
-            {
-                c.k_s = k_start;
-                c.base = *first.get_or_insert_with(|| {
-                    let ta = k_start as f64 * TICK_S - t0;
-                    if (ta - TICK_S).abs() < 1e-6 * TICK_S {
-                        (self.q_p, self.q_n)
-                    } else {
-                        ((-ta / self.tau_p).exp(), (-ta / self.tau_n).exp())
-                    }
-                });
-                let mut cur = Cursor {
-                    c,
-                    k: k_start,
-                    k_end,
-                };
-                if watched.get(x) {
-                    self.scan_to(&mut cur, k_end);
-                } else {
-                    self.pending[x.index()] = Some(cur);
-                }
-            }
-            y_end[j] = fx.at_decayed(h, w[2]) + bend.map_or(0.0, |b| b.at_decayed(h, w[2]));
-            self.last.0[j] = (fx, bend);
-        }
-        self.y = Abc::from_array(y_end);
-        self.y_n = fn_.at_decayed(h, w[3]);
-        self.last.1 = fn_;
-        self.last.2 = t0;
-    }
-
     /// Forgets toggles no query can reach any more: queries come at `now` or later, so
     /// nothing before `now` − delay is read, except a change not yet reported to the
     /// controller (visible at `unreported`), which must still be found.
-    pub fn forget_history(&mut self, now: Ticks, unreported: Option<Ticks>) {
+    fn forget_history(&mut self, now: Ticks, unreported: Option<Ticks>) {
         let mut horizon = now.0.saturating_sub(self.delay);
         if let Some(v) = unreported {
             horizon = horizon.min(v.0.saturating_sub(self.delay + 1));
@@ -497,21 +615,6 @@ impl ComparatorBank {
         for hist in &mut self.hist {
             hist.forget_before(horizon);
         }
-    }
-
-    /// Cuts the last update short at `t` (a tick instant inside it): toggles after `t` are
-    /// forgotten and the filters take their values at `t`.
-    pub fn truncate_at(&mut self, t: Ticks) {
-        self.finish_pending(t.0);
-        let tau = t.seconds() - self.last.2;
-        for x in Phase::ALL {
-            let (fx, bend) = &self.last.0[x.index()];
-            *self.y.get_mut(x) = fx.at(tau) + bend.map_or(0.0, |b| b.at(tau));
-            let h = &mut self.hist[x.index()];
-            self.toggles -= h.truncate_after(t.0);
-            *self.out.get_mut(x) = h.newest().map_or(h.base, |t| t.1);
-        }
-        self.y_n = self.last.1.at(tau);
     }
 
     /// Walks the ticks of `cur`'s step up to `k_stop` (at most its last) where a toggle is
@@ -528,7 +631,7 @@ impl ComparatorBank {
         let x = c.x;
         let ch = x.index();
         let key = noise::channel_key(self.seed, ch as u64);
-        self.scans += 1;
+        self.work.scans += 1;
         let (k_end, stop) = (cur.k_end, k_stop.min(cur.k_end));
         let (a, n) = (self.noise_a, self.noise_n);
         let mut k = cur.k;
@@ -549,7 +652,7 @@ impl ComparatorBank {
             }
             let seg_end = ((m + 1) * n - 1).min(stop);
             let noise = noise::uniform_keyed(key, m, a);
-            self.segments += 1;
+            self.work.segments += 1;
             if self.may_toggle_over(c, k, seg_end, noise, noise) {
                 self.walk(c, k, seg_end, noise);
                 span = 1; // the next segment is likely busy too
@@ -565,7 +668,7 @@ impl ComparatorBank {
     /// an exp and a sincos at every tick, recording each toggle.
     fn walk(&mut self, c: &Channel, k: u64, last: u64, noise: f64) {
         let (x, ch) = (c.x, c.x.index());
-        self.ticks_scanned += last - k + 1;
+        self.work.ticks_scanned += last - k + 1;
         let (dp, dn) = self.decay(c, k);
         let mut ep = c.a * dp;
         let mut en = c.b * dn;
@@ -633,72 +736,6 @@ impl ComparatorBank {
         cur.k = k + 1;
     }
 
-    /// Brings the channels nobody watches up to what is read at instant `at` (the output at
-    /// `at` − delay). Where the input is certainly beyond a threshold at that tick, the
-    /// ticks before it need not be walked: what is read is the same.
-    pub fn catch_up(&mut self, at: Ticks) {
-        let q = at.0.saturating_sub(self.delay);
-        for ch in 0..3 {
-            let Some(mut cur) = self.pending[ch].take() else {
-                continue;
-            };
-            if cur.k <= q.min(cur.k_end) {
-                let q = q.min(cur.k_end);
-                // Usually the input stays beyond the threshold for the rest of the step
-                // (a driven leg between PWM edges): then the step is done with.
-                if let Some(level) = self.certain_over(&cur, q, cur.k_end) {
-                    self.settle_at(&mut cur, q, level);
-                    continue;
-                }
-                // Else the tick read alone (when it is not the step's last: just tried).
-                match (q < cur.k_end)
-                    .then(|| self.certain_over(&cur, q, q))
-                    .flatten()
-                {
-                    Some(level) => self.settle_at(&mut cur, q, level),
-                    None => self.scan_to(&mut cur, q),
-                }
-            }
-            if cur.k <= cur.k_end {
-                self.pending[ch] = Some(cur);
-            }
-        }
-    }
-
-    /// Walks the rest of the present step for the `watched` channels: their changes are
-    /// looked for tick by tick from now on.
-    pub fn watch(&mut self, watched: Abc<bool>) {
-        for x in Phase::ALL.into_iter().filter(|&x| watched.get(x)) {
-            if let Some(mut cur) = self.pending[x.index()].take() {
-                self.scan_to(&mut cur, u64::MAX);
-            }
-        }
-    }
-
-    /// Ends the pending scans at tick `k_stop` (or their step's end): every tick a later
-    /// read can reach (from the end − delay on) is decided exactly, or known.
-    fn finish_pending(&mut self, k_stop: u64) {
-        for ch in 0..3 {
-            let Some(mut cur) = self.pending[ch].take() else {
-                continue;
-            };
-            if k_stop < cur.k_end {
-                cur.k_end = k_stop;
-            }
-            if cur.k > cur.k_end {
-                continue;
-            }
-            let a = cur.k.max(cur.k_end.saturating_sub(self.delay));
-            match self.certain_over(&cur, a, cur.k_end) {
-                Some(level) => self.settle_at(&mut cur, a, level),
-                None => {
-                    let end = cur.k_end;
-                    self.scan_to(&mut cur, end)
-                }
-            }
-        }
-    }
-
     /// Whether the output may toggle somewhere in τ ∈ [ta, tb], given noise in [n_lo, n_hi].
     /// `w` holds the decay factors (e^{−ta/τp}, e^{−ta/τn}, e^{−tb/τp}, e^{−tb/τn}); `env`
     /// bounds the ringing from ta on.
@@ -735,7 +772,7 @@ impl ComparatorBank {
     }
 
     /// Range of the noise-free signal (offset and ringing envelope included) over
-    /// τ ∈ [ta, tb]; `w` and `env` as in [`ComparatorBank::may_toggle`].
+    /// τ ∈ [ta, tb]; `w` and `env` as in [`Front::may_toggle`].
     fn range(&self, c: &Channel, ta: f64, tb: f64, w: [f64; 4], env: f64) -> (f64, f64) {
         let (lo, hi) = Self::range_ends(c, ta, tb, w, env);
         match self.stationary_within(c, w) {
@@ -744,7 +781,7 @@ impl ComparatorBank {
         }
     }
 
-    /// [`ComparatorBank::range`] from the interval's ends only: exact for P's chord, widened
+    /// [`Front::range`] from the interval's ends only: exact for P's chord, widened
     /// by P's deviation from it, and for the transients unless their stationary point lies
     /// inside.
     fn range_ends(c: &Channel, ta: f64, tb: f64, w: [f64; 4], env: f64) -> (f64, f64) {
@@ -783,13 +820,13 @@ impl ComparatorBank {
     }
 
     /// Outputs as seen after the propagation delay at instant `at`.
-    pub fn outputs_at(&self, at: Ticks) -> Abc<bool> {
+    fn outputs_at(&self, at: Ticks) -> Abc<bool> {
         let t = at.0.saturating_sub(self.delay);
         Abc::from_fn(|x| self.hist[x.index()].state_at(t))
     }
 
     /// Earliest instant after `after` at which a watched output changes (delay included).
-    pub fn next_visible_change(&self, after: Ticks, watch: Abc<bool>) -> Option<Ticks> {
+    fn next_visible_change(&self, after: Ticks, watch: Abc<bool>) -> Option<Ticks> {
         let t = after.0.saturating_sub(self.delay);
         Phase::ALL
             .into_iter()
@@ -797,17 +834,6 @@ impl ComparatorBank {
             .filter_map(|x| self.hist[x.index()].first_after(t))
             .min()
             .map(|k| Ticks(k + self.delay))
-    }
-
-    /// Toggles found so far (all channels). Toggles of an unwatched channel that no read
-    /// needed walked (see [`ComparatorBank::catch_up`]) are not counted.
-    pub fn toggle_count(&self) -> u64 {
-        self.toggles
-    }
-
-    /// Filter outputs (phase paths, neutral path) \[V\], for traces.
-    pub fn filtered(&self) -> (Abc<f64>, f64) {
-        (self.y, self.y_n)
     }
 }
 
@@ -936,7 +962,11 @@ mod tests {
         assert_eq!(want.len(), 2, "a rise and a fall: {want:?}");
         let mut c = bank();
         c.update(0.0, h, &w(d0), &w(d1), Abc::splat(true));
-        let got: Vec<_> = c.hist[Phase::W.index()].toggles.iter().copied().collect();
+        let got: Vec<_> = c.front.hist[Phase::W.index()]
+            .toggles
+            .iter()
+            .copied()
+            .collect();
         assert_eq!(got, want);
         assert!((c.filtered().0.w - y_at[n as usize]).abs() < 1e-9);
         // Cut in the middle: the filter takes its value there.
@@ -968,7 +998,7 @@ mod tests {
                 c.excite(end as f64 * TICK_S, 10.0);
             }
             c.finish_pending(u64::MAX);
-            (0..=end + c.delay)
+            (0..=end + c.front.delay)
                 .map(|k| c.outputs_at(Ticks(k)))
                 .collect::<Vec<_>>()
         };
@@ -1205,7 +1235,7 @@ mod tests {
             assert!(found > 300, "few toggles to compare: {found}");
             if all_watched {
                 for j in 0..3 {
-                    let got: Vec<_> = bank.hist[j].toggles.iter().copied().collect();
+                    let got: Vec<_> = bank.front.hist[j].toggles.iter().copied().collect();
                     assert_eq!(got, r.toggles[j], "channel {j}");
                 }
             }
