@@ -94,9 +94,10 @@ impl CurrentSense {
         ((v / self.full_scale * self.codes) as u64).min(self.max_code as u64) as u16
     }
 
-    /// The filter over [0, h] with the shunt current the cubic Hermite interpolant of
-    /// currents `i0`, `i1` \[A\] and slopes `d0`, `d1` [A/s], clipped to the amplifier's swing.
-    fn pieces(&self, h: f64, (i0, d0): (f64, f64), (i1, d1): (f64, f64)) -> Pieces {
+    /// Records as the last update's pieces the filter over [0, h] with the shunt current
+    /// the cubic Hermite interpolant of currents `i0`, `i1` \[A\] and slopes `d0`, `d1`
+    /// [A/s], clipped to the amplifier's swing.
+    fn set_pieces(&mut self, h: f64, (i0, d0): (f64, f64), (i1, d1): (f64, f64)) {
         let g = self.volts_per_amp;
         let (y0, y1, m0, m1) = (g * i0, g * i1, g * d0 * h, g * d1 * h);
         // In s = τ/h: v(s) = y0 + m0·s + c2·s² + c3·s³ [V].
@@ -165,12 +166,11 @@ impl CurrentSense {
         }
         bounds[1..n_b].sort_by(f64::total_cmp);
         bounds[n_b] = 1.0;
-        let mut out = Pieces {
-            seg: [CubicRc::new(0.0, self.y, [0.0; 4], self.tau); 7],
-            n: 0,
-            y_end: self.y,
-        };
-        let mut y = self.y;
+        // Built in place: the pieces are the chain's record of this update.
+        let (y0, tau) = (self.y, self.tau);
+        let out = &mut self.last.0;
+        out.n = 0;
+        let mut y = y0;
         for w in bounds[..=n_b].windows(2) {
             if w[1] <= w[0] || out.n == out.seg.len() {
                 continue;
@@ -183,13 +183,12 @@ impl CurrentSense {
             } else {
                 coeffs
             };
-            let seg = CubicRc::new(w[0] * h, y, c, self.tau);
+            let seg = CubicRc::new(w[0] * h, y, c, tau);
             y = seg.at(w[1] * h);
             out.seg[out.n] = seg;
             out.n += 1;
         }
         out.y_end = y;
-        out
     }
 
     /// Advances over [t0, t1] with the shunt current and its slope (`i` \[A\], `di` [A/s]) at
@@ -199,24 +198,24 @@ impl CurrentSense {
         if h <= 0.0 {
             return;
         }
-        let pieces = self.pieces(h, start, end);
+        self.set_pieces(h, start, end);
+        self.last.1 = t0;
         let k_end = Ticks::at_or_before(t1).0;
         while self.next_sample <= k_end {
-            let code = self.quantise(pieces.at(self.next_sample as f64 * TICK_S - t0));
+            let code = self.quantise(self.last.0.at(self.next_sample as f64 * TICK_S - t0));
             if self.results.len() == self.results.capacity() {
                 self.results.pop_front();
             }
             self.results.push_back((self.next_sample + self.conv, code));
             self.next_sample += self.conv;
         }
-        self.y = pieces.y_end;
-        self.last = (pieces, t0);
+        self.y = self.last.0.y_end;
     }
 
     /// Cuts the last update short at `t` \[s\] (inside it): samples after `t` are forgotten
     /// and the filter takes its value at `t`.
     pub fn truncate_at(&mut self, t: f64) {
-        let (pieces, t0) = self.last;
+        let (pieces, t0) = &self.last;
         self.y = pieces.at(t - t0);
         let k = Ticks::at_or_before(t).0;
         while self.results.back().is_some_and(|r| r.0 - self.conv > k) {
