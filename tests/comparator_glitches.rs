@@ -3,7 +3,7 @@
 
 mod common;
 
-use bldc_drive::drive_core::{Abc, Hold, Plant, StopReason, Ticks};
+use bldc_drive::drive_core::{Abc, Hold, Phase, Plant, StopReason, Ticks};
 use bldc_drive::plants::PlantParams;
 use common::*;
 
@@ -39,7 +39,7 @@ fn run(duty: u32, seed: u64) -> (Vec<(f64, f64, bool)>, Vec<f64>) {
             pwm.push(t);
         }
         let tick = Ticks((t / 20e-9).round() as u64);
-        let w = e.plant.sensed(tick).zc.w;
+        let w = e.plant.sensed(tick).zc(Phase::W);
         if level.is_some_and(|l| l != w) {
             edges.push((t, e.plant.observe().theta_e.to_degrees(), w));
         }

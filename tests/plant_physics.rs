@@ -3,7 +3,9 @@
 
 mod common;
 
-use bldc_drive::drive_core::{Abc, Command, Hold, OpenLoopSixStep, Plant, StopReason, Ticks};
+use bldc_drive::drive_core::{
+    Abc, Command, Hold, OpenLoopSixStep, Phase, Plant, StopReason, Ticks,
+};
 use bldc_drive::plants::{Conduction, PlantParams, SolverParams};
 use common::*;
 
@@ -342,10 +344,10 @@ impl bldc_drive::drive_core::Controller for CommutateOnEdge {
             v: false,
             w: true,
         };
-        if self.switched_at.is_none() && self.seen.is_some_and(|l| l != s.zc.w) {
+        if self.switched_at.is_none() && self.seen.is_some_and(|l| l != s.zc(Phase::W)) {
             self.switched_at = Some(now);
         }
-        self.seen = Some(s.zc.w);
+        self.seen = Some(s.zc(Phase::W));
         if self.switched_at.is_some() {
             hold("VFG", 1000, Abc::splat(false))
         } else {

@@ -16,7 +16,7 @@
 
 mod common;
 
-use bldc_drive::drive_core::{Abc, Hold, Plant, StopReason, TICK_S, Ticks};
+use bldc_drive::drive_core::{Abc, Hold, Phase, Plant, StopReason, TICK_S, Ticks};
 use bldc_drive::plants::bldc::CHORD_S;
 use bldc_drive::plants::{PlantParams, SolverParams};
 use common::*;
@@ -48,7 +48,7 @@ fn edges(params: &PlantParams, rpm: f64, max_step_s: f64, duty: u32) -> Vec<(u64
             return;
         }
         let tick = Ticks::at_or_after(e.plant.time_s()).0;
-        let w = e.plant.sensed(tick).zc.w;
+        let w = e.plant.sensed(tick).zc(Phase::W);
         if level.is_some_and(|l| l != w) {
             out.push((tick.0, w));
         }

@@ -1,18 +1,62 @@
 //! The controller side of the engine: what a strategy reads and what it returns.
 
-use crate::abc::Abc;
+use crate::abc::{Abc, Phase};
 use crate::bridge::{ALL_FLOAT, Pattern, SIX_STEP_120, floating_phase};
 use crate::pwm::DutyCounts;
 use crate::time::Ticks;
+use std::cell::Cell;
 
 /// Signals a controller can read at one of its clock edges.
-#[derive(Copy, Clone, Debug, Default, PartialEq, Eq)]
+///
+/// A comparator output is decided only if the controller declared it in
+/// [`Command::reads`] (or watches it): the plant need not decide the others. Reading one
+/// that is not decided is recorded, and the engine stops with
+/// [`crate::EngineError::UndecidedRead`] after the tick, so a wrong declaration is an
+/// error, never a silently stale value.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
 pub struct Sensed {
-    /// Comparator outputs u_d, v_d, w_d (true: terminal above neutral), as seen at the
-    /// controller's input, i.e. after the comparators' propagation delay.
-    pub zc: Abc<bool>,
+    zc: Abc<bool>,
+    decided: Abc<bool>,
+    misread: Cell<u8>,
     /// Latest completed ADC conversion of the shunt-current channel \[codes\].
     pub current_code: u16,
+}
+
+impl Sensed {
+    /// Comparator outputs u_d, v_d, w_d (true: terminal above neutral), all decided, and
+    /// the current reading.
+    pub fn new(zc: Abc<bool>, current_code: u16) -> Self {
+        Sensed::partly(zc, Abc::splat(true), current_code)
+    }
+
+    /// As [`Sensed::new`], with only the channels in `decided` decided.
+    pub fn partly(zc: Abc<bool>, decided: Abc<bool>, current_code: u16) -> Self {
+        Sensed {
+            zc,
+            decided,
+            misread: Cell::new(0),
+            current_code,
+        }
+    }
+
+    /// Comparator output of phase `x` as seen at the controller's input, i.e. after the
+    /// comparators' propagation delay (true: terminal above neutral).
+    pub fn zc(&self, x: Phase) -> bool {
+        if !self.decided.get(x) {
+            self.misread.set(self.misread.get() | 1 << x.index());
+        }
+        self.zc.get(x)
+    }
+
+    /// All three comparator outputs (each read as by [`Sensed::zc`]).
+    pub fn zc_all(&self) -> Abc<bool> {
+        Abc::from_fn(|x| self.zc(x))
+    }
+
+    /// The comparator outputs read although not decided.
+    pub fn misread(&self) -> Abc<bool> {
+        Abc::from_fn(|x| self.misread.get() & 1 << x.index() != 0)
+    }
 }
 
 /// What a controller returns at each of its ticks. It never touches the bridge itself.
@@ -24,19 +68,29 @@ pub struct Command {
     pub duty: DutyCounts,
     /// Comparator channels whose changes must wake the controller at its next clock edge.
     pub watch: Abc<bool>,
+    /// From which instant the controller reads each comparator channel at its ticks until
+    /// its next command ([`Ticks::ZERO`]: at once, [`Ticks::NEVER`]: not at all; watched
+    /// channels are read anyway). The plant leaves a channel undecided until then, which
+    /// saves it that channel's work; declare [`Command::READS_ALL`] when in doubt.
+    pub reads: Abc<Ticks>,
     /// The next instant the controller must run even if no watched input changes
     /// ([`Ticks::NEVER`] for none). Rounded up to the controller's clock by the engine.
     pub wake_at: Ticks,
 }
 
 impl Command {
-    /// Everything off, nothing watched, no wake-up.
+    /// Everything off, nothing watched, no wake-up; every channel read (a controller's
+    /// first tick sees what this command declared).
     pub const OFF: Command = Command {
         pattern: ALL_FLOAT,
         duty: 0,
         watch: Abc::splat(false),
+        reads: Command::READS_ALL,
         wake_at: Ticks::NEVER,
     };
+
+    /// Every channel read, at once.
+    pub const READS_ALL: Abc<Ticks> = Abc::splat(Ticks::ZERO);
 }
 
 /// A clocked controller (commutation strategy, speed/current control, supervision).
@@ -148,7 +202,7 @@ impl Controller for OpenLoopSixStep {
         let k = self.state_at(now);
         let pattern = SIX_STEP_120[k];
         let floating = floating_phase(&pattern);
-        let level = floating.map(|x| sensed.zc.get(x)).unwrap_or(false);
+        let level = floating.map(|x| sensed.zc(x)).unwrap_or(false);
         if let Some((k0, l0)) = self.last {
             if k0 == k && l0 != level {
                 self.zc_edges += 1;
@@ -160,10 +214,21 @@ impl Controller for OpenLoopSixStep {
             .0
             .checked_div(self.step.0)
             .map_or(Ticks::NEVER, |n| Ticks((n + 1) * self.step.0));
+        // The next tick may be in the next state: both floating phases are read.
+        let after = floating_phase(&SIX_STEP_120[(k + 1) % 6]);
         Command {
             pattern,
             duty: self.duty,
             watch,
+            reads: Abc::from_fn(|x| {
+                if Some(x) == floating {
+                    Ticks::ZERO
+                } else if Some(x) == after {
+                    next
+                } else {
+                    Ticks::NEVER
+                }
+            }),
             wake_at: next,
         }
     }

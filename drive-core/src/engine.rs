@@ -6,8 +6,9 @@
 //! stop early for a diode event or a watched comparator change. Each call to
 //! [`Engine::step`] reports why it stopped. The step loop allocates nothing.
 
+use crate::abc::Phase;
 use crate::bridge::{Gates, ShootThrough};
-use crate::control::{Command, Controller};
+use crate::control::{Command, Controller, Sensed};
 use crate::gate_driver::GateDriver;
 use crate::plant::{Plant, PlantStop, Watch};
 use crate::pwm::{Carrier, PwmScheme};
@@ -42,6 +43,18 @@ pub enum EngineError {
         time_s: f64,
         /// Which leg.
         source: ShootThrough,
+    },
+    /// The controller read a comparator output it had not declared (see [`Sensed`]).
+    #[error(
+        "at t = {time_s} s the controller read comparator output(s) {phases} without declaring \
+         them in Command::reads (rule: a controller reads only the channels its last command \
+         declared or watched)"
+    )]
+    UndecidedRead {
+        /// When \[s\].
+        time_s: f64,
+        /// The phases read, e.g. "u, w".
+        phases: String,
     },
     /// The controller reported a fault (see [`Controller::fault`]).
     #[error("at t = {time_s} s the controller stopped: {message}")]
@@ -175,6 +188,7 @@ impl<P: Plant, C: Controller, S: PwmScheme> Engine<P, C, S> {
         let target = end.min(pwm_edge).min(self.wake).min(release).min(sample);
         let watch = Watch {
             channels: self.cmd.watch,
+            reads: self.cmd.reads,
             clock: self.controller.clock(),
             horizon: pwm_edge.min(release).max(target),
         };
@@ -224,12 +238,30 @@ impl<P: Plant, C: Controller, S: PwmScheme> Engine<P, C, S> {
         }
     }
 
+    /// The error for a tick that read an undecided comparator output, if it did.
+    fn check_reads(t: Ticks, sensed: &Sensed) -> Result<(), EngineError> {
+        let bad = sensed.misread();
+        if bad == crate::abc::Abc::splat(false) {
+            return Ok(());
+        }
+        let phases: Vec<&str> = Phase::ALL
+            .into_iter()
+            .filter(|&x| bad.get(x))
+            .map(|x| ["u", "v", "w"][x.index()])
+            .collect();
+        Err(EngineError::UndecidedRead {
+            time_s: t.seconds(),
+            phases: phases.join(", "),
+        })
+    }
+
     /// Everything due at instant `t`: controller tick, PWM state, gate-driver releases.
     fn act(&mut self, t: Ticks, tick: bool, released: bool) -> Result<(), EngineError> {
         if tick {
             self.last_tick = Some(t);
             let sensed = self.plant.sensed(t);
             self.cmd = self.controller.tick(t, &sensed);
+            Self::check_reads(t, &sensed)?;
             if let Some(message) = self.controller.fault() {
                 self.cmd = Command::OFF;
                 return Err(EngineError::ControllerFault {
@@ -279,6 +311,25 @@ mod tests {
         change_at: Ticks,
         level: bool,
         gate_log: Vec<(Ticks, Gates)>,
+        declared: Watch,
+    }
+
+    impl MockPlant {
+        fn new(change_at: Ticks) -> Self {
+            MockPlant {
+                t: Ticks::ZERO,
+                change_at,
+                level: false,
+                gate_log: Vec::new(),
+                // What the engine declares before the controller's first command.
+                declared: Watch {
+                    channels: Abc::splat(false),
+                    reads: Command::READS_ALL,
+                    clock: Ticks(32),
+                    horizon: Ticks::NEVER,
+                },
+            }
+        }
     }
 
     impl Plant for MockPlant {
@@ -289,6 +340,7 @@ mod tests {
             self.gate_log.push((self.t, *g));
         }
         fn advance(&mut self, until: Ticks, watch: Watch) -> PlantStop {
+            self.declared = watch;
             let edge = self.change_at.next_edge(watch.clock);
             if watch.channels.w && self.t < edge && until >= edge {
                 self.t = edge;
@@ -299,14 +351,18 @@ mod tests {
             PlantStop::Reached
         }
         fn sensed(&self, at: Ticks) -> Sensed {
-            Sensed {
-                zc: Abc {
-                    u: false,
-                    v: false,
-                    w: self.level && at >= self.change_at,
-                },
-                current_code: 0,
-            }
+            let zc = Abc {
+                u: false,
+                v: false,
+                w: self.level && at >= self.change_at,
+            };
+            // Only the declared channels are decided, as a plant may do.
+            let d = self.declared;
+            Sensed::partly(
+                zc,
+                Abc::from_fn(|x| d.channels.get(x) || d.reads.get(x) <= at),
+                0,
+            )
         }
     }
 
@@ -320,18 +376,13 @@ mod tests {
             Ticks(32)
         }
         fn tick(&mut self, now: Ticks, s: &Sensed) -> Command {
-            self.calls.push((now, s.zc.w));
+            self.calls.push((now, s.zc(Phase::W)));
             self.cmd
         }
     }
 
     fn engine(cmd: Command, change_at: Ticks) -> Engine<MockPlant, Logger, HighSideChop> {
-        let plant = MockPlant {
-            t: Ticks::ZERO,
-            change_at,
-            level: false,
-            gate_log: Vec::new(),
-        };
+        let plant = MockPlant::new(change_at);
         Engine::new(
             plant,
             Logger {
@@ -355,6 +406,7 @@ mod tests {
                 v: false,
                 w: true,
             },
+            reads: Abc::splat(Ticks::NEVER),
             wake_at: Ticks(1000),
         };
         let mut e = engine(cmd, Ticks(100));
@@ -372,12 +424,51 @@ mod tests {
     }
 
     #[test]
+    fn reading_an_undeclared_comparator_output_stops_the_engine_with_an_error() {
+        // w neither watched nor declared read before tick 200, but the controller reads it
+        // at every tick.
+        let cmd = Command {
+            pattern: SIX_STEP_120[1],
+            duty: 50,
+            watch: Abc::splat(false),
+            reads: Abc {
+                u: Ticks::ZERO,
+                v: Ticks::ZERO,
+                w: Ticks(200),
+            },
+            wake_at: Ticks(100),
+        };
+        let mut e = engine(cmd, Ticks::NEVER);
+        // The first tick sees what the initial command (every channel) declared.
+        e.step(Ticks(1000)).unwrap();
+        let err = e.run_until(Ticks(1000), |_, _| {}).unwrap_err();
+        assert_eq!(
+            err,
+            EngineError::UndecidedRead {
+                time_s: Ticks(128).seconds(),
+                phases: "w".into(),
+            }
+        );
+        assert!(err.to_string().contains("Command::reads"), "{err}");
+        // Declared, the same reads are fine.
+        let mut e = engine(
+            Command {
+                reads: Command::READS_ALL,
+                ..cmd
+            },
+            Ticks::NEVER,
+        );
+        e.run_until(Ticks(1000), |_, _| {}).unwrap();
+    }
+
+    #[test]
     fn pwm_edges_switch_the_gates_on_exact_ticks() {
         let pattern = SIX_STEP_120[1]; // u = V, v = G, w = F
         let cmd = Command {
             pattern,
             duty: 25,
             watch: Abc::splat(false),
+            reads: Abc::splat(Ticks::NEVER),
             wake_at: Ticks::NEVER,
         };
         let mut e = engine(cmd, Ticks::NEVER);
@@ -413,12 +504,7 @@ mod tests {
                 g
             }
         }
-        let plant = MockPlant {
-            t: Ticks::ZERO,
-            change_at: Ticks::NEVER,
-            level: false,
-            gate_log: Vec::new(),
-        };
+        let plant = MockPlant::new(Ticks::NEVER);
         let logger = Logger {
             calls: Vec::new(),
             cmd: Command::OFF,

@@ -23,6 +23,10 @@ pub enum PlantStop {
 pub struct Watch {
     /// Channels whose changes matter.
     pub channels: Abc<bool>,
+    /// From which instant each channel is read at the controller's ticks besides the
+    /// watched ones (see [`crate::Command::reads`]): the plant may leave a channel
+    /// undecided until then (see [`crate::Sensed`]).
+    pub reads: Abc<Ticks>,
     /// Sampling clock period: a change is reported at the first clock edge at or after it.
     pub clock: Ticks,
     /// The next instant at which the engine already knows the gates will change (PWM edge,

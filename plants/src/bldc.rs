@@ -199,6 +199,9 @@ pub struct BldcPlant {
     fsal: Option<(State, State)>,
     /// Latest clock edge reported as a sensing stop: changes up to it have been sampled.
     reported: Ticks,
+    /// From which instant each comparator output is read or watched (see
+    /// [`drive_core::Command::reads`]): the others are left undecided.
+    read_from: Abc<Ticks>,
     stats: PlantStats,
 }
 
@@ -249,6 +252,7 @@ impl BldcPlant {
             lin: circuit::state_index(&modes),
             modal: matches!(m.back_emf, BackEmfShape::Sinusoidal),
             reported: Ticks::ZERO,
+            read_from: drive_core::Command::READS_ALL,
             lookahead: None,
             base_hint: (0.0, 0.0, 1.0),
             fsal: None,
@@ -1040,6 +1044,13 @@ impl Plant for BldcPlant {
     }
 
     fn advance(&mut self, until: Ticks, watch: Watch) -> PlantStop {
+        self.read_from = Abc::from_fn(|x| {
+            if watch.channels.get(x) {
+                Ticks::ZERO
+            } else {
+                watch.reads.get(x)
+            }
+        });
         // Unwatched comparators are walked only as far as they are read: at the instant
         // returned, and from now on for the channels watched now.
         self.cmp.watch(watch.channels);
@@ -1049,10 +1060,8 @@ impl Plant for BldcPlant {
     }
 
     fn sensed(&self, at: Ticks) -> Sensed {
-        Sensed {
-            zc: self.cmp.outputs_at(at),
-            current_code: self.cur.code_at(at),
-        }
+        let decided = Abc::from_fn(|x| self.read_from.get(x) <= at);
+        Sensed::partly(self.cmp.outputs_at(at), decided, self.cur.code_at(at))
     }
 }
 

@@ -99,6 +99,9 @@ pub struct Chip {
     name: StrategyName,
     control: ControlParams,
     table: Table,
+    /// A table set since the last tick: the shifter takes it at the end of the next one,
+    /// so that the channels that tick reads were declared under the table it uses.
+    pending_table: Option<Table>,
     guard: Guard,
     shifter: PhaseShifter,
     speed: SpeedMeter,
@@ -183,6 +186,7 @@ impl Chip {
         Ok(Chip {
             name: strategy.name,
             table,
+            pending_table: None,
             guard: Guard::from_params(&strategy),
             shifter: PhaseShifter::new(table, BLANKING),
             speed: SpeedMeter::new(
@@ -240,7 +244,8 @@ impl Chip {
     }
 
     /// Changes the twelve-step conduction angle [electrical degrees], effective from the
-    /// next crossing. Rule: 120 ≤ x < 180, twelve-step strategies only.
+    /// first crossing after the next clock edge. Rule: 120 ≤ x < 180, twelve-step
+    /// strategies only.
     pub fn set_conduction_angle(&mut self, deg: f64) -> Result<(), ParamError> {
         let strategy = StrategyParams {
             name: self.name,
@@ -251,7 +256,7 @@ impl Chip {
         self.table = Table::TwelveStep {
             conduction_deg: strategy.conduction_deg(),
         };
-        self.shifter.set_table(self.table);
+        self.pending_table = Some(self.table);
         Ok(())
     }
 
@@ -357,14 +362,14 @@ impl Chip {
 
     fn run(&mut self, now: Ticks, sensed: &Sensed) {
         self.shifter.poll(now);
-        let z = sensed.zc.get(self.shifter.zd_phase());
+        let z = sensed.zc(self.shifter.zd_phase());
         let level = self.guard.detect_level(now, z);
         self.zd = z;
         self.zdf = level;
         if self.shifter.observe(now, level) == ShiftEvent::Crossing {
             self.crossings += 1;
             // With an empty post part the sensed phase changed at this same edge.
-            let z = sensed.zc.get(self.shifter.zd_phase());
+            let z = sensed.zc(self.shifter.zd_phase());
             self.guard.filter.retarget(z);
         }
         self.pattern = self.shifter.pattern();
@@ -521,15 +526,25 @@ impl Controller for Chip {
                 }
             }
         }
+        if let Some(t) = self.pending_table.take() {
+            self.shifter.set_table(t);
+        }
         let watch = if self.mode == Mode::Running && self.shifter.in_pre() {
             Abc::from_fn(|x| x == self.shifter.zd_phase())
         } else {
             Abc::splat(false)
         };
+        let reads = match self.mode {
+            Mode::Running => self.shifter.zd_reads(),
+            // The hand-over at the end of the alignment reads Z_d at once.
+            Mode::Aligning { .. } => Command::READS_ALL,
+            Mode::Off | Mode::GaveUp => Abc::splat(Ticks::NEVER),
+        };
         Command {
             pattern: self.pattern,
             duty: self.duty(),
             watch,
+            reads,
             wake_at: self.wake_at(now),
         }
     }

@@ -442,6 +442,8 @@ impl PluginStrategy {
                 v: c.watch[1] != 0,
                 w: c.watch[2] != 0,
             },
+            // The ABI passes every comparator output to the plugin.
+            reads: Command::READS_ALL,
             wake_at: if c.wake_at == u64::MAX {
                 Ticks::NEVER
             } else {
@@ -461,7 +463,7 @@ impl Controller for PluginStrategy {
             return Command::OFF;
         }
         let s = abi::CSensed {
-            zc: [sensed.zc.u.into(), sensed.zc.v.into(), sensed.zc.w.into()],
+            zc: sensed.zc_all().to_array().map(u8::from),
             current_code: sensed.current_code,
         };
         let mut c = abi::CCommand::default();

@@ -28,7 +28,7 @@
 //! stalled rotor would otherwise be stepped forever on timeouts, hiding the step miss.
 
 use crate::table::{Sector, Table};
-use drive_core::{Pattern, Phase, Ticks, clocks};
+use drive_core::{Abc, Pattern, Phase, Ticks, clocks};
 
 /// The 15-bit counters' limit [clocks].
 pub const COUNTER_MAX: u64 = (1 << 15) - 1;
@@ -208,6 +208,37 @@ impl PhaseShifter {
         }
     }
 
+    /// From which instant Z_d may select each phase's comparator at the coming clock edges
+    /// while nothing else changes the shifter (see [`Command::reads`]): the phase it
+    /// selects now; in the post part, the sector's sensed phase from the commutation on;
+    /// in the pre part, the next sector's if a crossing could leave the post part empty
+    /// (its pre part then begins at once).
+    ///
+    /// [`Command::reads`]: drive_core::Command::reads
+    pub fn zd_reads(&self) -> Abc<Ticks> {
+        let mut r = Abc::splat(Ticks::NEVER);
+        *r.get_mut(self.zd_phase()) = Ticks::ZERO;
+        let (x, from) = if self.in_pre {
+            if !self.post_may_be_empty() {
+                return r;
+            }
+            (self.table.sector(self.sector + 1).sensed, Ticks::ZERO)
+        } else {
+            (self.sector().sensed, self.post_end)
+        };
+        let e = r.get_mut(x);
+        *e = (*e).min(from);
+        r
+    }
+
+    /// Whether the next crossing could leave an empty post part: its t_60 is the present
+    /// one (fewer than two crossings measured) or at least ¾ of it (an earlier crossing is
+    /// not plausible), and at least one clock.
+    fn post_may_be_empty(&self) -> bool {
+        let (num, den) = self.table.post_fraction();
+        (self.t60 * 3 / 4).max(1) * num / den == 0
+    }
+
     /// Last t_60 [0.64 µs clocks] and whether it was measured (else the hand-over value).
     pub fn t60(&self) -> (u64, bool) {
         (self.t60, self.measured)
@@ -285,6 +316,59 @@ mod tests {
             t += CLK;
         }
         log
+    }
+
+    /// Every phase Z_d selects at a clock edge (before and after a crossing there, as the
+    /// chip reads it) was declared by [`PhaseShifter::zd_reads`] at the edge before, from
+    /// an instant not after it; and only with a post part does the pre part declare one
+    /// phase alone.
+    #[test]
+    fn zd_reads_declares_every_phase_the_next_edge_selects() {
+        let t60 = 200;
+        for table in [
+            Table::SixStep,
+            Table::TwelveStep {
+                conduction_deg: 120.0,
+            },
+            Table::TwelveStep {
+                conduction_deg: 150.0,
+            },
+        ] {
+            let mut s = PhaseShifter::new(table, Ticks(320));
+            s.hand_over(0, Ticks(0), t60);
+            let mut declared = s.zd_reads();
+            let (mut crossed, mut single) = (0u64, 0u32);
+            for k in 1..=8 * t60 {
+                let now = Ticks(k * CLK);
+                let read = |s: &PhaseShifter| {
+                    let x = s.zd_phase();
+                    assert!(
+                        declared.get(x) <= now,
+                        "{table:?} at {now:?}: {x:?} undeclared"
+                    );
+                };
+                s.poll(now);
+                read(&s);
+                let post_level = s.sector().rising;
+                let level = if now.0 >= (crossed + 1) * t60 * CLK {
+                    post_level
+                } else {
+                    !post_level
+                };
+                if s.observe(now, level) == ShiftEvent::Crossing {
+                    crossed += 1;
+                    read(&s);
+                }
+                declared = s.zd_reads();
+                let n = Phase::ALL
+                    .iter()
+                    .filter(|&&x| declared.get(x) != Ticks::NEVER);
+                single += u32::from(n.count() == 1);
+            }
+            assert!(crossed >= 6, "{table:?}: {crossed} crossings");
+            let empty_post = table.post_fraction().0 == 0;
+            assert_eq!(single > 0, !empty_post, "{table:?}");
+        }
     }
 
     #[test]

@@ -45,6 +45,7 @@ pub fn hold(p: &str, duty: u32, watch: Abc<bool>) -> Command {
         pattern: pattern(p),
         duty,
         watch,
+        reads: Command::READS_ALL,
         wake_at: Ticks::NEVER,
     }
 }

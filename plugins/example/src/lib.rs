@@ -68,14 +68,14 @@ impl Plugin for ExampleDf {
     }
 
     fn step(&mut self, now: u64, sensed: &CSensed) -> Result<(CCommand, CStatus), String> {
-        let s = Sensed {
-            zc: Abc {
+        let s = Sensed::new(
+            Abc {
                 u: sensed.zc[0] != 0,
                 v: sensed.zc[1] != 0,
                 w: sensed.zc[2] != 0,
             },
-            current_code: sensed.current_code,
-        };
+            sensed.current_code,
+        );
         let c = self.chip.tick(Ticks(now), &s);
         let leg = |l: LegState| match l {
             LegState::High => LEG_HIGH,
