@@ -1051,6 +1051,8 @@ impl Plant for BldcPlant {
                 watch.reads.get(x)
             }
         });
+        self.cmp
+            .declare(Ticks::at_or_after(self.t).0, watch.channels, watch.reads);
         // Unwatched comparators are walked only as far as they are read: at the instant
         // returned, and from now on for the channels watched now.
         self.cmp.watch(watch.channels);

@@ -14,7 +14,10 @@
 //! master-tick grid, and reaches the controller after a propagation delay. Toggles are found
 //! by scanning ticks only where bounds on the signal allow one, which keeps the comparators
 //! cheap while the input is far from its thresholds; a channel nobody watches is scanned
-//! only as far as it is read, and not at all where its reading is certain anyway.
+//! only as far as it is read, and not at all where its reading is certain anyway. A
+//! channel nobody reads (see [`drive_core::Command::reads`]) is left undecided: its steps
+//! are recorded, and decided only if it is read again, from the last one whose end is
+//! certain.
 
 use super::foh::Foh;
 use super::noise;
@@ -210,6 +213,19 @@ struct Cursor {
     k_end: u64,
 }
 
+/// The switching node's ringing, Im(z·e^{(−1/τr + jω)(t − t_k)}) from the excitation
+/// on, referred to the tick k at instant t_k.
+#[derive(Copy, Clone, Debug, Default, PartialEq)]
+struct Ring {
+    /// The phasor (re, im) \[V\].
+    z: (f64, f64),
+    /// t_k \[s\].
+    t: f64,
+    k: u64,
+    /// |z| \[V\]: the envelope at t_k.
+    mag: f64,
+}
+
 /// The longest block of noise segments [`Front::scan_to`] bounds at once.
 const MAX_SPAN: u64 = 1 << 32;
 
@@ -219,6 +235,111 @@ pub struct ComparatorBank {
     front: Front,
     /// Scans of the present step not yet walked, for channels nobody watches.
     pending: [Option<Cursor>; 3],
+    /// The latest steps, newest last: the last update, and those a channel nobody reads
+    /// has not been decided over.
+    records: Records,
+    /// For each channel nobody reads, the first recorded step it is undecided over.
+    dormant: [Option<u64>; 3],
+    /// From which instant each channel is read or watched (see
+    /// [`ComparatorBank::declare`]).
+    read_from: Abc<Ticks>,
+}
+
+/// Steps kept for channels nobody reads: enough to walk them later, with room for 16
+/// (a channel still undecided over the oldest is decided before it goes).
+const RECORDS: usize = 16;
+
+/// One step's inputs to the three channels: the filter responses over it and the ringing.
+#[derive(Copy, Clone, Debug)]
+struct Record {
+    /// Start \[s\] and length \[s\].
+    t0: f64,
+    h: f64,
+    /// First and last tick decided in it (the last moves back if the step is cut short).
+    k_start: u64,
+    k_end: u64,
+    /// Each phase path's response to its chord and to a floating leg's bend, the neutral
+    /// path's response (see [`Channel::new`]).
+    fx: [Foh; 3],
+    bend: [Option<CubicRc>; 3],
+    fn_: Foh,
+    /// e^{−h/τp}, e^{−h/τn}, and the decays at the first tick.
+    eh: (f64, f64),
+    first: (f64, f64),
+    /// The ringing over the step, and its envelope at the start \[V\].
+    ring: Ring,
+    env0: f64,
+}
+
+/// A ring of the latest [`RECORDS`] steps by sequence number.
+#[derive(Clone, Debug)]
+struct Records {
+    buf: [Record; RECORDS],
+    /// Sequence number of the oldest.
+    first: u64,
+    len: usize,
+}
+
+impl Records {
+    /// One empty step at t = 0, settled on `y`, `y_n`.
+    fn new(y: &Abc<f64>, y_n: f64) -> Self {
+        let rest = |v: f64| Foh::new(v, v, v, 0.0, 1.0);
+        let rec = Record {
+            t0: 0.0,
+            h: 0.0,
+            k_start: 1,
+            k_end: 0,
+            fx: y.to_array().map(rest),
+            bend: [None; 3],
+            fn_: rest(y_n),
+            eh: (1.0, 1.0),
+            first: (1.0, 1.0),
+            ring: Ring::default(),
+            env0: 0.0,
+        };
+        Records {
+            buf: [rec; RECORDS],
+            first: 0,
+            len: 1,
+        }
+    }
+
+    fn is_full(&self) -> bool {
+        self.len == RECORDS
+    }
+
+    /// Appends `rec`, dropping the oldest when full; returns its sequence number.
+    fn push(&mut self, rec: Record) -> u64 {
+        if self.is_full() {
+            self.first += 1;
+            self.len -= 1;
+        }
+        let seq = self.first + self.len as u64;
+        self.buf[(seq % RECORDS as u64) as usize] = rec;
+        self.len += 1;
+        seq
+    }
+
+    fn newest_seq(&self) -> u64 {
+        self.first + self.len as u64 - 1
+    }
+
+    fn get(&self, seq: u64) -> &Record {
+        debug_assert!(
+            (self.first..=self.newest_seq()).contains(&seq),
+            "step {seq} is not recorded"
+        );
+        &self.buf[(seq % RECORDS as u64) as usize]
+    }
+
+    fn newest(&self) -> &Record {
+        self.get(self.newest_seq())
+    }
+
+    fn newest_mut(&mut self) -> &mut Record {
+        let seq = self.newest_seq();
+        &mut self.buf[(seq % RECORDS as u64) as usize]
+    }
 }
 
 /// The scans' work counters (for profiling).
@@ -265,16 +386,9 @@ struct Front {
     y_n: f64,
     out: Abc<bool>,
     hist: [History; 3],
-    /// Ringing phasor (re, im) referred to `ring_t`, the tick `ring_k`:
-    /// ring(t) = Im(Z·e^{(−1/τr + jω)(t − ring_t)}).
-    ring: (f64, f64),
-    ring_t: f64,
-    ring_k: u64,
-    ring_mag: f64,
+    ring: Ring,
     toggles: u64,
     work: ScanWork,
-    /// Filter segments of the last update (phase paths, neutral) and its start time.
-    last: ([(Foh, Option<CubicRc>); 3], Foh, f64),
 }
 
 impl ComparatorBank {
@@ -318,21 +432,16 @@ impl ComparatorBank {
                 History::new(out.v),
                 History::new(out.w),
             ],
-            ring: (0.0, 0.0),
-            ring_t: 0.0,
-            ring_k: 0,
-            ring_mag: 0.0,
+            ring: Ring::default(),
             toggles: 0,
             work: ScanWork::default(),
-            last: (
-                [(Foh::new(0.0, 0.0, 0.0, 0.0, 1.0), None); 3],
-                Foh::new(0.0, 0.0, 0.0, 0.0, 1.0),
-                0.0,
-            ),
         };
         ComparatorBank {
+            records: Records::new(&front.y, front.y_n),
             front,
             pending: [None, None, None],
+            dormant: [None; 3],
+            read_from: Abc::splat(Ticks::ZERO),
         }
     }
 
@@ -358,110 +467,197 @@ impl ComparatorBank {
             (1.0, 0.0)
         };
         let g = f.ring_gain * dv;
-        f.ring = (re + g * dr, im + g * di);
-        f.ring_mag = f.ring.0.hypot(f.ring.1);
-        f.ring_k = k;
-        f.ring_t = k as f64 * TICK_S;
+        f.ring.z = (re + g * dr, im + g * di);
+        f.ring.mag = f.ring.z.0.hypot(f.ring.z.1);
+        f.ring.k = k;
+        f.ring.t = k as f64 * TICK_S;
     }
 
     /// Advances the filters over [t0, t1] with terminal and neutral voltages interpolated
     /// between `k0` and `k1` (see [`Knot`]), recording every output toggle on the tick grid:
     /// now for the `watched` channels, as far as they are read for the others (see
-    /// [`ComparatorBank::catch_up`]).
+    /// [`ComparatorBank::catch_up`]), and not at all for a channel nobody reads over this
+    /// step (see [`ComparatorBank::declare`]): its steps are kept, to be decided if it is
+    /// read again.
     pub fn update(&mut self, t0: f64, t1: f64, k0: &Knot, k1: &Knot, watched: Abc<bool>) {
-        let h = t1 - t0;
-        if h <= 0.0 {
+        if t1 - t0 <= 0.0 {
             return;
         }
-        self.finish_pending(u64::MAX);
-        let f = &mut self.front;
-        let mut env0 = f.ring_envelope(t0);
-        if f.ring_mag != 0.0 && env0 < 1e-9 {
-            // Decayed below a nanovolt: drop it so later bounds skip the envelope.
-            f.ring = (0.0, 0.0);
-            f.ring_mag = 0.0;
-            env0 = 0.0;
-        }
-        // One division per step: the four filter inputs' slopes share 1/h.
-        let inv_h = 1.0 / h;
-        let dvn = (k1.vn - k0.vn) * inv_h;
-        let fn_ = Foh::ramp(f.y_n, k0.vn, dvn, f.tau_n);
-        let k_start = Ticks::at_or_before(t0).0 + 1;
         let k_end = Ticks::at_or_before(t1).0;
-        // Steps repeat their lengths (PWM half-periods, the solver's longest step): cache;
-        // a length of whole ticks (most are) by table.
-        if f.decay_cache.0 != h {
-            f.decay_cache = match Ticks::at_or_after(h) {
-                (n, true) => (h, f.pow_p.real(n.0), f.pow_n.real(n.0)),
-                _ => (h, (-h / f.tau_p).exp(), (-h / f.tau_n).exp()),
-            };
+        // A channel is decided over the step if a read can reach into it (reads see the
+        // output a delay back).
+        let delay = self.front.delay;
+        let live = Abc::from_fn(|x| {
+            watched.get(x) || self.read_from.get(x).0.saturating_sub(delay) <= k_end
+        });
+        for x in Phase::ALL {
+            if live.get(x) {
+                self.wake(x, u64::MAX);
+            }
         }
-        let (_, eh_p, eh_n) = f.decay_cache;
-        let w = [1.0, 1.0, eh_p, eh_n];
-        // Decay factors at the step's first tick, shared by the channels.
-        let mut first: Option<(f64, f64)> = None;
-        let (v0, v1) = (k0.v.to_array(), k1.v.to_array());
-        let (r0, r1) = (k0.emf_rate.to_array(), k1.emf_rate.to_array());
-        let (y, offset) = (f.y.to_array(), f.offset.to_array());
-        let mut y_end = y;
+        // The last update's scans (a woken channel's too) are ended before the next.
+        self.finish_pending(u64::MAX);
+        let seq = self.push_record(t0, t1, k0, k1);
+        let rec = self.records.get(seq);
+        let f = &mut self.front;
         for x in Phase::ALL {
             let j = x.index();
-            let chord = (v1[j] - v0[j]) * inv_h;
-            let fx = Foh::ramp(y[j], v0[j], chord, f.tau_p);
-            // A floating leg's input is the neutral's chord plus its back-EMF's Hermite
-            // cubic: its chord plus a cubic vanishing at both ends, filtered from rest.
-            let bend = match (r0[j], r1[j]) {
-                (Some(d0), Some(d1)) => {
-                    let q = hermite(inv_h, (0.0, dvn + d0 - chord), (0.0, dvn + d1 - chord));
-                    Some(CubicRc::new(0.0, 0.0, q, f.tau_p))
-                }
-                _ => None,
-            };
-            let mut c = Channel::new(x, t0, (&fx, bend.as_ref(), &fn_), f.inv_tau, offset[j], h);
-            if k_start <= k_end && f.may_toggle(&c, 0.0, h, w, env0, -f.noise_a, f.noise_a) {
-                c.k_s = k_start;
-                c.base = *first.get_or_insert_with(|| {
-                    let ta = k_start as f64 * TICK_S - t0;
-                    if (ta - TICK_S).abs() < 1e-6 * TICK_S {
-                        (f.q_p, f.q_n)
-                    } else {
-                        ((-ta / f.tau_p).exp(), (-ta / f.tau_n).exp())
-                    }
-                });
-                let cur = Cursor {
-                    c,
-                    k: k_start,
-                    k_end,
-                };
+            if !live.get(x) {
+                self.dormant[j].get_or_insert(seq);
+            } else if let Some(mut cur) = f.open(rec, x) {
                 if watched.get(x) {
-                    f.scan_to(&mut { cur }, k_end);
+                    f.scan_to(&mut cur, rec.k_end);
                 } else {
                     self.pending[j] = Some(cur);
                 }
             }
-            y_end[j] = fx.at_decayed(h, w[2]) + bend.map_or(0.0, |b| b.at_decayed(h, w[2]));
-            f.last.0[j] = (fx, bend);
         }
-        f.y = Abc::from_array(y_end);
-        f.y_n = fn_.at_decayed(h, w[3]);
-        f.last.1 = fn_;
-        f.last.2 = t0;
+        let (h, (eh_p, eh_n)) = (rec.h, rec.eh);
+        f.y = Abc::from_fn(|x| {
+            let j = x.index();
+            rec.fx[j].at_decayed(h, eh_p) + rec.bend[j].map_or(0.0, |b| b.at_decayed(h, eh_p))
+        });
+        f.y_n = rec.fn_.at_decayed(h, eh_n);
+    }
+
+    /// Declares from which instant each channel is read (`read_from`, see
+    /// [`drive_core::Command::reads`]) besides the `watched` ones, at tick `now`: reads
+    /// come at `now` or later, and the last update is cut short, if at all, there or
+    /// later. A channel read from within the last update on, or watched, that was left
+    /// undecided is decided now.
+    pub fn declare(&mut self, now: Ticks, watched: Abc<bool>, read_from: Abc<Ticks>) {
+        self.read_from = Abc::from_fn(|x| {
+            if watched.get(x) {
+                Ticks::ZERO
+            } else {
+                read_from.get(x)
+            }
+        });
+        let delay = self.front.delay;
+        for x in Phase::ALL {
+            let wake = self.dormant[x.index()].is_some_and(|_| {
+                let k_end = self.records.newest().k_end;
+                self.read_from.get(x).0.saturating_sub(delay) <= k_end
+            });
+            if wake {
+                self.wake(x, now.0);
+            }
+        }
+    }
+
+    /// Records the step [t0, t1] (the filters' responses over it, from their present
+    /// state) as the newest, making room first; returns its sequence number.
+    fn push_record(&mut self, t0: f64, t1: f64, k0: &Knot, k1: &Knot) -> u64 {
+        if self.records.is_full() {
+            // The oldest step goes: a channel still undecided over it is decided first.
+            let oldest = self.records.first;
+            for x in Phase::ALL {
+                if self.dormant[x.index()] == Some(oldest) {
+                    self.compact(x);
+                }
+            }
+        }
+        let rec = self.front.record(t0, t1, k0, k1);
+        self.records.push(rec)
+    }
+
+    /// Decides what channel `x` left undecided (its recorded steps from `dormant[x]` on)
+    /// and makes it decided again, where reads may come from tick `now` on (a read sees
+    /// the output a delay back) and the newest step may be cut short from `now` on. Where
+    /// the input is certain over the last `delay` ticks read of a step, the steps before
+    /// do not matter: what any later read sees is the same.
+    fn wake(&mut self, x: Phase, now: u64) {
+        let Some(from) = self.dormant[x.index()].take() else {
+            return;
+        };
+        let newest = self.records.newest_seq();
+        if from > newest || self.settle_end(x, newest, now) {
+            return;
+        }
+        let mut start = from;
+        for seq in (from..newest).rev() {
+            if self.settle_end(x, seq, u64::MAX) {
+                start = seq + 1;
+                break;
+            }
+        }
+        for seq in start..newest {
+            self.scan_record(x, seq);
+        }
+        // The newest step is scanned as far as it is read, like any other, while the
+        // ringing is still its own; after an edge has excited more, it is walked now.
+        let rec = self.records.newest();
+        if rec.ring == self.front.ring {
+            self.pending[x.index()] = self.front.open(rec, x);
+        } else {
+            self.scan_record(x, newest);
+        }
+    }
+
+    /// Makes room in the records for channel `x`, undecided from the oldest step on: if it
+    /// is certain at the end of the newest (committed) step, the steps up to it no longer
+    /// matter; else the oldest is walked.
+    fn compact(&mut self, x: Phase) {
+        let j = x.index();
+        let newest = self.records.newest_seq();
+        if self.settle_end(x, newest, u64::MAX) {
+            self.dormant[j] = Some(newest + 1);
+        } else if let Some(from) = self.dormant[j] {
+            self.scan_record(x, from);
+            self.dormant[j] = Some(from + 1);
+        }
+    }
+
+    /// Settles channel `x` over the end of recorded step `seq` if its input is beyond a
+    /// threshold from `delay` ticks before the step's end or tick `upto`, whichever is
+    /// sooner, to the end (and the step reaches that far back).
+    fn settle_end(&mut self, x: Phase, seq: u64, upto: u64) -> bool {
+        let rec = self.records.get(seq);
+        let a = rec.k_end.min(upto).saturating_sub(self.front.delay);
+        if a < rec.k_start || rec.k_start > rec.k_end {
+            return false;
+        }
+        let f = &mut self.front;
+        let level = f.with_ring(rec.ring, |f| {
+            let c = f.channel(rec, x);
+            f.certain_over(&c, a, rec.k_end)
+        });
+        match level {
+            Some(level) => {
+                f.set_output(x, a, level);
+                true
+            }
+            None => false,
+        }
+    }
+
+    /// Walks channel `x` over the whole of recorded step `seq`, with the ringing of then.
+    fn scan_record(&mut self, x: Phase, seq: u64) {
+        let rec = self.records.get(seq);
+        self.front.with_ring(rec.ring, |f| {
+            if let Some(mut cur) = f.open(rec, x) {
+                f.scan_to(&mut cur, rec.k_end);
+            }
+        });
     }
 
     /// Cuts the last update short at `t` (a tick instant inside it): toggles after `t` are
     /// forgotten and the filters take their values at `t`.
     pub fn truncate_at(&mut self, t: Ticks) {
         self.finish_pending(t.0);
+        let rec = self.records.newest_mut();
+        rec.k_end = rec.k_end.min(t.0);
+        let rec = self.records.newest();
         let f = &mut self.front;
-        let tau = t.seconds() - f.last.2;
+        let tau = t.seconds() - rec.t0;
         for x in Phase::ALL {
-            let (fx, bend) = &f.last.0[x.index()];
-            *f.y.get_mut(x) = fx.at(tau) + bend.map_or(0.0, |b| b.at(tau));
-            let h = &mut f.hist[x.index()];
+            let j = x.index();
+            *f.y.get_mut(x) = rec.fx[j].at(tau) + rec.bend[j].map_or(0.0, |b| b.at(tau));
+            let h = &mut f.hist[j];
             f.toggles -= h.truncate_after(t.0);
             *f.out.get_mut(x) = h.newest().map_or(h.base, |t| t.1);
         }
-        f.y_n = f.last.1.at(tau);
+        f.y_n = rec.fn_.at(tau);
     }
 
     /// Brings the channels nobody watches up to what is read at instant `at` (the output at
@@ -476,12 +672,15 @@ impl ComparatorBank {
                 let q = q.min(cur.k_end);
                 // Usually the input stays beyond the threshold for the rest of the step
                 // (a driven leg between PWM edges): then the step is done with.
-                if let Some(level) = f.certain_over(cur, q, cur.k_end) {
+                if let Some(level) = f.certain_over(&cur.c, q, cur.k_end) {
                     f.settle_at(cur, q, level);
                     cur.k = cur.k_end + 1;
                 } else {
                     // Else the tick read alone (when it is not the step's last: just tried).
-                    match (q < cur.k_end).then(|| f.certain_over(cur, q, q)).flatten() {
+                    match (q < cur.k_end)
+                        .then(|| f.certain_over(&cur.c, q, q))
+                        .flatten()
+                    {
                         Some(level) => f.settle_at(cur, q, level),
                         None => f.scan_to(cur, q),
                     }
@@ -514,7 +713,7 @@ impl ComparatorBank {
             cur.k_end = cur.k_end.min(k_stop);
             if cur.k <= cur.k_end {
                 let a = cur.k.max(cur.k_end.saturating_sub(f.delay));
-                match f.certain_over(cur, a, cur.k_end) {
+                match f.certain_over(&cur.c, a, cur.k_end) {
                     Some(level) => f.settle_at(cur, a, level),
                     None => f.scan_to(cur, cur.k_end),
                 }
@@ -561,17 +760,17 @@ impl Front {
     /// The ringing phasor at tick `k`, not before the last excitation (see
     /// [`ComparatorBank::excite`]): by table.
     fn ring_at(&self, k: u64) -> (f64, f64) {
-        if self.ring == (0.0, 0.0) {
+        if self.ring.z == (0.0, 0.0) {
             return (0.0, 0.0);
         }
         debug_assert!(
-            k >= self.ring_k,
+            k >= self.ring.k,
             "ringing asked at tick {k}, before its excitation"
         );
-        let (wr, wi) = self.pow_ring.at(k.saturating_sub(self.ring_k));
+        let (wr, wi) = self.pow_ring.at(k.saturating_sub(self.ring.k));
         let z = (
-            self.ring.0 * wr - self.ring.1 * wi,
-            self.ring.0 * wi + self.ring.1 * wr,
+            self.ring.z.0 * wr - self.ring.z.1 * wi,
+            self.ring.z.0 * wi + self.ring.z.1 * wr,
         );
         if z.0.abs() + z.1.abs() < 1e-9 {
             return (0.0, 0.0);
@@ -590,18 +789,18 @@ impl Front {
     /// `t` is a tick, as the engine's instants mostly are.
     fn ring_envelope(&self, t: f64) -> f64 {
         match Ticks::at_or_after(t) {
-            (k, true) if k.0 >= self.ring_k => self.ring_envelope_at(k.0),
-            _ if self.ring_mag == 0.0 => 0.0,
-            _ => self.ring_mag * (-(t - self.ring_t) / self.ring_decay).exp(),
+            (k, true) if k.0 >= self.ring.k => self.ring_envelope_at(k.0),
+            _ if self.ring.mag == 0.0 => 0.0,
+            _ => self.ring.mag * (-(t - self.ring.t) / self.ring_decay).exp(),
         }
     }
 
     /// The ringing's envelope at tick `k` (not before the excitation), by table.
     fn ring_envelope_at(&self, k: u64) -> f64 {
-        if self.ring_mag == 0.0 {
+        if self.ring.mag == 0.0 {
             return 0.0;
         }
-        self.ring_mag * self.pow_env.real(k.saturating_sub(self.ring_k))
+        self.ring.mag * self.pow_env.real(k.saturating_sub(self.ring.k))
     }
 
     /// Forgets toggles no query can reach any more: queries come at `now` or later, so
@@ -705,11 +904,10 @@ impl Front {
         self.may_toggle(c, ta, tb, [pa, na, pb, nb], env, n_lo, n_hi)
     }
 
-    /// The output over ticks `a..=b` of `cur`'s step if the comparator input is beyond a
+    /// The output over ticks `a..=b` of `c`'s step if the comparator input is beyond a
     /// threshold there whatever the noise and ringing: then it does not depend on the
     /// ticks before.
-    fn certain_over(&self, cur: &Cursor, a: u64, b: u64) -> Option<bool> {
-        let c = &cur.c;
+    fn certain_over(&self, c: &Channel, a: u64, b: u64) -> Option<bool> {
         let (ta, tb) = (a as f64 * TICK_S - c.t0, b as f64 * TICK_S - c.t0);
         let (pa, na) = self.decay(c, a);
         let (pb, nb) = if a == b { (pa, na) } else { self.decay(c, b) };
@@ -727,13 +925,113 @@ impl Front {
     /// Sets channel `cur`'s output to `level` from tick `k` on (a toggle there if it
     /// differs) and moves the cursor past `k`.
     fn settle_at(&mut self, cur: &mut Cursor, k: u64, level: bool) {
-        let x = cur.c.x;
+        self.set_output(cur.c.x, k, level);
+        cur.k = k + 1;
+    }
+
+    /// Sets channel `x`'s output to `level` from tick `k` on (a toggle there if it
+    /// differs).
+    fn set_output(&mut self, x: Phase, k: u64, level: bool) {
         if self.out.get(x) != level {
             *self.out.get_mut(x) = level;
             self.hist[x.index()].push(k, level);
             self.toggles += 1;
         }
-        cur.k = k + 1;
+    }
+
+    /// The step [t0, t1] with terminal and neutral voltages interpolated between `k0` and
+    /// `k1`, from the filters' present state (see [`Record`]). A ringing decayed below a
+    /// nanovolt is dropped first, so that bounds skip the envelope.
+    fn record(&mut self, t0: f64, t1: f64, k0: &Knot, k1: &Knot) -> Record {
+        let h = t1 - t0;
+        let mut env0 = self.ring_envelope(t0);
+        if self.ring.mag != 0.0 && env0 < 1e-9 {
+            self.ring.z = (0.0, 0.0);
+            self.ring.mag = 0.0;
+            env0 = 0.0;
+        }
+        // One division per step: the four filter inputs' slopes share 1/h.
+        let inv_h = 1.0 / h;
+        let dvn = (k1.vn - k0.vn) * inv_h;
+        let fn_ = Foh::ramp(self.y_n, k0.vn, dvn, self.tau_n);
+        let k_start = Ticks::at_or_before(t0).0 + 1;
+        // Steps repeat their lengths (PWM half-periods, the solver's longest step): cache;
+        // a length of whole ticks (most are) by table.
+        if self.decay_cache.0 != h {
+            self.decay_cache = match Ticks::at_or_after(h) {
+                (n, true) => (h, self.pow_p.real(n.0), self.pow_n.real(n.0)),
+                _ => (h, (-h / self.tau_p).exp(), (-h / self.tau_n).exp()),
+            };
+        }
+        let ta = k_start as f64 * TICK_S - t0;
+        let first = if (ta - TICK_S).abs() < 1e-6 * TICK_S {
+            (self.q_p, self.q_n)
+        } else {
+            ((-ta / self.tau_p).exp(), (-ta / self.tau_n).exp())
+        };
+        let (v0, v1) = (k0.v.to_array(), k1.v.to_array());
+        let (r0, r1) = (k0.emf_rate.to_array(), k1.emf_rate.to_array());
+        let chord: [f64; 3] = std::array::from_fn(|j| (v1[j] - v0[j]) * inv_h);
+        Record {
+            t0,
+            h,
+            k_start,
+            k_end: Ticks::at_or_before(t1).0,
+            fx: std::array::from_fn(|j| {
+                Foh::ramp(self.y.to_array()[j], v0[j], chord[j], self.tau_p)
+            }),
+            // A floating leg's input is the neutral's chord plus its back-EMF's Hermite
+            // cubic: its chord plus a cubic vanishing at both ends, filtered from rest.
+            bend: std::array::from_fn(|j| match (r0[j], r1[j]) {
+                (Some(d0), Some(d1)) => {
+                    let (a, b) = (dvn + d0 - chord[j], dvn + d1 - chord[j]);
+                    let q = hermite(inv_h, (0.0, a), (0.0, b));
+                    Some(CubicRc::new(0.0, 0.0, q, self.tau_p))
+                }
+                _ => None,
+            }),
+            fn_,
+            eh: (self.decay_cache.1, self.decay_cache.2),
+            first,
+            env0,
+            ring: self.ring,
+        }
+    }
+
+    /// Channel `x` over recorded step `rec`, its first tick and the decays there set.
+    fn channel(&self, rec: &Record, x: Phase) -> Channel {
+        let j = x.index();
+        let paths = (&rec.fx[j], rec.bend[j].as_ref(), &rec.fn_);
+        let off = self.offset.get(x);
+        let mut c = Channel::new(x, rec.t0, paths, self.inv_tau, off, rec.h);
+        c.k_s = rec.k_start;
+        c.base = rec.first;
+        c
+    }
+
+    /// A scan of channel `x` over recorded step `rec`, unless nothing can happen in it.
+    fn open(&self, rec: &Record, x: Phase) -> Option<Cursor> {
+        if rec.k_start > rec.k_end {
+            return None;
+        }
+        let c = self.channel(rec, x);
+        let w = [1.0, 1.0, rec.eh.0, rec.eh.1];
+        let (a, env) = (self.noise_a, rec.env0);
+        let cursor = Cursor {
+            c,
+            k: rec.k_start,
+            k_end: rec.k_end,
+        };
+        self.may_toggle(&cursor.c, 0.0, rec.h, w, env, -a, a)
+            .then_some(cursor)
+    }
+
+    /// Runs `op` with `ring` in place of the present ringing (to walk a recorded step).
+    fn with_ring<R>(&mut self, ring: Ring, op: impl FnOnce(&mut Front) -> R) -> R {
+        let now = std::mem::replace(&mut self.ring, ring);
+        let r = op(self);
+        self.ring = now;
+        r
     }
 
     /// Whether the output may toggle somewhere in τ ∈ [ta, tb], given noise in [n_lo, n_hi].
@@ -1135,7 +1433,10 @@ mod tests {
     /// millivolts from the neutral and ramping through it, common-mode PWM edges of several
     /// volts that excite the ringing, some steps cut short. Every toggle the bank finds
     /// (all watched), or every output read (watched at random, read at each step's end),
-    /// equals the brute-force one.
+    /// equals the brute-force one; and so does every output read that was declared, with
+    /// channels declared read from random instants (now, within the step, later, never),
+    /// and declarations changed between steps and at their ends, so that channels are left
+    /// undecided over many steps and decided again when read.
     #[test]
     fn the_scans_find_exactly_the_toggles_of_a_tick_by_tick_evaluation() {
         let p = ComparatorParams::default();
@@ -1146,7 +1447,15 @@ mod tests {
             rng ^= rng << 17;
             (rng >> 11) as f64 / (1u64 << 53) as f64
         };
-        for all_watched in [true, false] {
+        // Three runs with declarations: each draws other inputs and other declarations.
+        let modes = [
+            Mode::AllWatched,
+            Mode::SomeWatched,
+            Mode::Declared,
+            Mode::Declared,
+            Mode::Declared,
+        ];
+        for mode in modes {
             let v = Abc::splat(0.0);
             let seed = 11;
             let mut bank = ComparatorBank::new(&p, seed, &v, 0.0);
@@ -1163,10 +1472,11 @@ mod tests {
             };
             let (mut t, mut cm) = (0.0, 0.0);
             let mut diff = [0.0; 3];
-            let mut reads = 0;
+            let (mut reads, mut undecided_steps) = (0, 0);
+            let mut read_from = Abc::splat(Ticks::ZERO);
             for step in 0..600 {
                 // A PWM edge now and then: the common mode jumps by up to ±6 V.
-                if step % 7 == 3 {
+                if step % 4 == 3 {
                     let dv = 12.0 * (next() - 0.5);
                     cm += dv;
                     bank.excite(t, dv);
@@ -1180,15 +1490,31 @@ mod tests {
                 if next() < 0.2 {
                     h += 0.37 * TICK_S;
                 }
-                let slope = 400.0 * (next() - 0.5); // V/s: 20 mV over 50 µs at most
-                let d1 = diff.map(|d| (d + slope * h + 4e-3 * (next() - 0.5)).clamp(-0.03, 0.03));
+                // Slow, fast or hovering inputs: the hovering ones stay undecidable at the
+                // ends of steps for a while, the fast ones cross within a step.
+                let scale = [0.0, 400.0, 3000.0][(3.0 * next()) as usize];
+                let slope = scale * (next() - 0.5); // V/s: 75 mV over 50 µs at most
+                // u jumps about its thresholds from step to step: it toggles in most steps
+                // and is seldom certain at their ends, so its undecided stretches are long.
+                let d1: [f64; 3] = std::array::from_fn(|j| {
+                    if j == 0 {
+                        0.016 * (next() - 0.5)
+                    } else {
+                        (diff[j] + slope * h + 4e-3 * (next() - 0.5)).clamp(-0.03, 0.03)
+                    }
+                });
                 let cm1 = cm + 0.2 * (next() - 0.5);
                 let k1 = knot(cm1, d1);
-                let watched = if all_watched {
-                    ALL
-                } else {
-                    Abc::from_fn(|_| next() < 0.3)
+                let watched = match mode {
+                    Mode::AllWatched => ALL,
+                    Mode::SomeWatched => Abc::from_fn(|_| next() < 0.3),
+                    Mode::Declared => Abc::from_fn(|_| next() < 0.03),
                 };
+                let now = Ticks::at_or_after(t).0;
+                if mode == Mode::Declared {
+                    read_from = random_reads(&mut next, read_from, now, 2.0 * h);
+                }
+                bank.declare(now, watched, read_from);
                 bank.watch(watched);
                 bank.update(t, t + h, &k0, &k1, watched);
                 let first = Ticks::at_or_before(t).0 + 1;
@@ -1197,7 +1523,6 @@ mod tests {
                     .then(|| first + ((last - first) as f64 * next()) as u64);
                 let t1 = match cut {
                     Some(k) => {
-                        bank.truncate_at(Ticks(k));
                         // The cut step's inputs at the cut: the same ramps.
                         let f = (k as f64 * TICK_S - t) / h;
                         let at = knot(
@@ -1205,6 +1530,27 @@ mod tests {
                             std::array::from_fn(|j| diff[j] + f * (d1[j] - diff[j])),
                         );
                         r.update((t, k as f64 * TICK_S), &k0, &at);
+                        if mode == Mode::Declared && next() < 0.5 {
+                            // A controller tick inside the step, before the cut, declares
+                            // anew and reads there.
+                            let mid = Ticks(first + ((k - first) as f64 * next()) as u64);
+                            read_from = random_reads(&mut next, read_from, mid, 20e-6);
+                            bank.declare(mid, watched, read_from);
+                            bank.catch_up(mid);
+                            let read = bank.outputs_at(mid).to_array();
+                            let q = mid.0.saturating_sub(p.delay().0);
+                            for (j, x) in Phase::ALL.into_iter().enumerate() {
+                                if watched.get(x) || read_from.get(x) <= mid {
+                                    let want = r.output_at(j, q, init[j]);
+                                    assert_eq!(
+                                        read[j], want,
+                                        "channel {j} at {mid:?}, step {step}"
+                                    );
+                                    reads += 1;
+                                }
+                            }
+                        }
+                        bank.truncate_at(Ticks(k));
                         cm += f * (cm1 - cm);
                         diff = at.v.to_array().map(|v| v - cm);
                         k as f64 * TICK_S
@@ -1215,31 +1561,155 @@ mod tests {
                         t + h
                     }
                 };
+                undecided_steps += usize::from(bank.dormant.iter().any(Option::is_some));
                 let at = Ticks::at_or_after(t1).0;
-                bank.catch_up(at);
-                let read = bank.outputs_at(at);
                 let k = at.0.saturating_sub(p.delay().0);
-                for (j, (got, &initial)) in read.to_array().into_iter().zip(&init).enumerate() {
-                    assert_eq!(
-                        got,
-                        r.output_at(j, k, initial),
-                        "channel {j} read at tick {}, step {step}",
-                        at.0
-                    );
-                    reads += 1;
+                // Read at the step's end, and in a third of them again after a new
+                // declaration there (as a controller tick's command would make).
+                for again in [false, true] {
+                    if again {
+                        if mode != Mode::Declared || next() > 0.3 {
+                            break;
+                        }
+                        read_from = random_reads(&mut next, read_from, at, 100e-6);
+                        bank.declare(at, watched, read_from);
+                    }
+                    bank.catch_up(at);
+                    let read = bank.outputs_at(at).to_array();
+                    for (j, x) in Phase::ALL.into_iter().enumerate() {
+                        if !watched.get(x) && read_from.get(x) > at {
+                            continue; // not decided
+                        }
+                        assert_eq!(
+                            read[j],
+                            r.output_at(j, k, init[j]),
+                            "{mode:?}: channel {j} read at tick {}, step {step}",
+                            at.0
+                        );
+                        reads += 1;
+                    }
                 }
                 t = t1;
             }
-            assert_eq!(reads, 1800);
             let found: usize = r.toggles.iter().map(Vec::len).sum();
             assert!(found > 300, "few toggles to compare: {found}");
-            if all_watched {
+            if mode == Mode::Declared {
+                assert!(reads > 600, "{reads} reads");
+                assert!(
+                    undecided_steps > 200,
+                    "{undecided_steps} steps with undecided channels"
+                );
+            } else {
+                assert_eq!(reads, 1800);
+                assert_eq!(undecided_steps, 0);
+            }
+            if mode == Mode::AllWatched {
                 for j in 0..3 {
                     let got: Vec<_> = bank.front.hist[j].toggles.iter().copied().collect();
                     assert_eq!(got, r.toggles[j], "channel {j}");
                 }
             }
         }
+    }
+
+    /// A channel left undecided over more steps than are recorded: its input sits inside
+    /// the hysteresis band (no step's end is certain), toggled by the ringing of edges in
+    /// the first steps only, so that its output at the end is decided by steps long gone
+    /// from the records. Read again, it agrees with the brute-force evaluation, for every
+    /// noise seed and number of edges tried.
+    #[test]
+    fn a_channel_undecided_over_more_steps_than_are_recorded_is_decided_exactly() {
+        let p = ComparatorParams {
+            offset_v: Abc::splat(0.0),
+            ..ComparatorParams::default()
+        };
+        let (none, all) = (Abc::splat(false), Abc::splat(Ticks::ZERO));
+        let (n, h) = (3 * RECORDS as u64, 2e-6);
+        let mut differs = 0;
+        for seed in 1..=12 {
+            let mut bank = ComparatorBank::new(&p, seed, &Abc::splat(0.0), 0.0);
+            let mut r = Reference {
+                p: p.clone(),
+                seed,
+                y: [0.0; 3],
+                y_n: 0.0,
+                out: [false; 3],
+                ring: (0.0, 0.0),
+                ring_k: 0,
+                toggles: [Vec::new(), Vec::new(), Vec::new()],
+            };
+            for step in 0..n {
+                let t = step as f64 * h;
+                let now = Ticks::at_or_after(t).0;
+                // Unread but for the last step.
+                let reads = if step + 1 < n {
+                    Abc::splat(Ticks::NEVER)
+                } else {
+                    all
+                };
+                bank.declare(now, none, reads);
+                // Edges of ±6 V in the first steps; between them everything sits at 0 V
+                // but u, 2 mV above: inside the ±5 mV band.
+                if step < RECORDS as u64 / 2 + seed % 3 {
+                    let dv = if step % 2 == 0 { 6.0 } else { -6.0 };
+                    bank.excite(t, dv);
+                    r.excite(t, dv);
+                }
+                let k = Knot::driven(
+                    Abc {
+                        u: 2e-3,
+                        v: 0.0,
+                        w: 0.0,
+                    },
+                    0.0,
+                );
+                bank.update(t, t + h, &k, &k, none);
+                r.update((t, t + h), &k, &k);
+                assert!(step + 1 == n || bank.dormant.iter().all(Option::is_some));
+            }
+            assert!(r.toggles[0].len() > 4, "the ringing toggles u");
+            let at = Ticks::at_or_after(n as f64 * h).0;
+            bank.catch_up(at);
+            let read = bank.outputs_at(at).to_array();
+            let k = at.0 - p.delay().0;
+            for (j, &got) in read.iter().enumerate() {
+                assert_eq!(got, r.output_at(j, k, false), "seed {seed}, channel {j}");
+            }
+            // How often the output now differs from the one before the unread stretch.
+            differs += usize::from(read[0] != bank.front.hist[0].base);
+        }
+        assert!(
+            differs >= 2,
+            "the read must depend on the stretch: {differs} of 12"
+        );
+    }
+
+    /// Each channel's declaration `prev` kept (four times in five: channels stay undecided
+    /// over runs of steps), or else read from now, never, or a random instant within
+    /// `span` \[s\].
+    fn random_reads(
+        next: &mut impl FnMut() -> f64,
+        prev: Abc<Ticks>,
+        now: Ticks,
+        span: f64,
+    ) -> Abc<Ticks> {
+        Abc::from_fn(|x| {
+            if next() < 0.8 {
+                return prev.get(x);
+            }
+            match next() {
+                u if u < 0.3 => Ticks::ZERO,
+                u if u < 0.7 => Ticks::NEVER,
+                u => Ticks(now.0 + ((u - 0.7) / 0.3 * span / TICK_S) as u64),
+            }
+        })
+    }
+
+    #[derive(Copy, Clone, Debug, PartialEq)]
+    enum Mode {
+        AllWatched,
+        SomeWatched,
+        Declared,
     }
 
     #[test]
