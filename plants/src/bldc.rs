@@ -140,8 +140,9 @@ impl Dense {
 /// plant settles at the present time.
 #[derive(Clone, Debug)]
 struct Lookahead {
-    /// The state the step starts from.
+    /// The state the step starts from, and the derivative there.
     x0: State,
+    f0: State,
     /// The step's starting angle with its sine and cosine.
     base: (f64, f64, f64),
     t0: f64,
@@ -442,15 +443,10 @@ impl BldcPlant {
         ])
     }
 
-    /// The state a step of length `h` from `x` reaches, where `base` holds an angle near
-    /// x's with its sine and cosine (every angle inside the step is reached from it by
-    /// angle addition).
-    fn integrate(&self, x: &State, h: f64, base: (f64, f64, f64)) -> State {
-        self.integrate_from(x, h, base, self.deriv(&dynamic(x), base))
-    }
-
-    /// [`BldcPlant::integrate`] with the derivative at the start, `k1`, already known: the
-    /// modal form's exact currents where there is one (sinusoidal back-EMF), else RK4.
+    /// The state a step of length `h` from `x` reaches, given the derivative there, `k1`;
+    /// `base` holds an angle near x's with its sine and cosine (every angle inside the
+    /// step is reached from it by angle addition). The modal form's exact currents where
+    /// there is one (sinusoidal back-EMF), else RK4.
     fn integrate_from(&self, x: &State, h: f64, base: (f64, f64, f64), k1: State) -> State {
         match &self.form().1 {
             Some(md) if self.modal => self.flow_from(md, x, h, base, k1),
@@ -649,11 +645,12 @@ impl BldcPlant {
         b
     }
 
-    /// Earliest h in (0, h_full] where phase p's event function reaches zero.
-    fn locate(&mut self, x0: &State, h_full: f64, p: Phase) -> f64 {
+    /// Earliest h in (0, h_full] where phase p's event function reaches zero, for the
+    /// step from `x0` whose derivative there is `k1`.
+    fn locate(&mut self, x0: &State, k1: State, h_full: f64, p: Phase) -> f64 {
         let base = Self::base(x0);
         let g = |pl: &Self, h: f64| {
-            let x = pl.integrate(x0, h, base);
+            let x = pl.integrate_from(x0, h, base, k1);
             let s = pl.solve_near(&x, base);
             pl.event_margin(&x, &s, p)
         };
@@ -732,7 +729,7 @@ impl BldcPlant {
             }
             if let Some(s) = self.interior_reversal(d, p) {
                 let h = s * h_full;
-                let x = self.integrate(x0, h, b0);
+                let x = self.integrate_from(x0, h, b0, d.f0);
                 if self.event_margin(&x, &self.start, p) < 0.0 {
                     hit[k] = true;
                     bracket[k] = h;
@@ -751,7 +748,7 @@ impl BldcPlant {
                 let mut done = false;
                 for _ in 0..3 {
                     // Newton on the step's solution itself, from the dense guess.
-                    let x = self.integrate(x0, h, b0);
+                    let x = self.integrate_from(x0, h, b0, d.f0);
                     if x[k].abs() < 1e-9 {
                         done = true;
                         at = Some(x);
@@ -763,9 +760,13 @@ impl BldcPlant {
                     }
                     h = (h - x[k] / slope).clamp(0.0, h_full);
                 }
-                if done { h } else { self.locate(x0, h_full, p) }
+                if done {
+                    h
+                } else {
+                    self.locate(x0, d.f0, h_full, p)
+                }
             } else {
-                self.locate(x0, bracket[k], p)
+                self.locate(x0, d.f0, bracket[k], p)
             };
             if first.is_none_or(|(h0, _, _)| h < h0) {
                 first = Some((h, p, at));
@@ -971,7 +972,7 @@ impl BldcPlant {
     fn state(&self) -> State {
         match &self.lookahead {
             Some(la) => {
-                let mut x = self.integrate(&la.x0, self.t - la.t0, la.base);
+                let mut x = self.integrate_from(&la.x0, self.t - la.t0, la.base, la.f0);
                 if !(0.0..TAU).contains(&x[THETA]) {
                     x[THETA] = x[THETA].rem_euclid(TAU);
                 }
@@ -1140,7 +1141,7 @@ impl BldcPlant {
             if let Some((h, p, at)) = self.first_event(&step, &s1, b0) {
                 // The step to the event is integrated (not interpolated), so the energy
                 // integrals stay consistent with the currents.
-                x1 = at.unwrap_or_else(|| self.integrate(&x0, h, b0));
+                x1 = at.unwrap_or_else(|| self.integrate_from(&x0, h, b0, f0));
                 (f1, s1) = self.deriv_and_solution(&x1, b0);
                 t1 = t0 + h;
                 event = Some(p);
@@ -1162,6 +1163,7 @@ impl BldcPlant {
                 // stop there, keeping the rest of the step for later.
                 self.lookahead = Some(Lookahead {
                     x0,
+                    f0,
                     base: b0,
                     t0,
                     t1,
