@@ -67,8 +67,21 @@ fn energy_balance_and_torque_consistency_with_pwm() {
     let m = params.motor.clone();
     let pp = m.poles as f64 / 2.0;
     let mut checked = 0;
+    // Trapezoids over the 5 µs samples of the drag torque, Te and Te² (from rest at t = 0).
+    let drag = |w: f64| {
+        m.viscous_friction_nms * w + m.coulomb_friction_nm * (w / m.coulomb_speed_rad_s).tanh()
+    };
+    let (mut last, mut sums) = ((0.0, [0.0; 3]), [0.0; 3]);
     eng.run_until(Ticks::from_seconds(0.15).unwrap(), |e, _| {
         let o = e.plant.observe();
+        let now = (
+            o.t_s,
+            [drag(o.omega_m), o.torque_nm, o.torque_nm * o.torque_nm],
+        );
+        for (k, sum) in sums.iter_mut().enumerate() {
+            *sum += 0.5 * (now.1[k] + last.1[k]) * (now.0 - last.0);
+        }
+        last = now;
         let emf = spec_emf(&params, o.theta_e, o.omega_m);
         let third = 2.0 * std::f64::consts::PI / 3.0;
         let te = pp
@@ -118,6 +131,34 @@ fn energy_balance_and_torque_consistency_with_pwm() {
     // only: measured 2.3e-7 of the airgap energy at the default 80 µs step (1.2e-7 at 40 µs;
     // 1.4e-5 at 40 µs with RK4 for the currents).
     assert!(mech < 1e-4, "mechanical balance off by {mech}");
+    // Momentum: J·Δωm = ∫Te dt − ∫drag dt − TL·t, with the plant's own ∫Te dt (measured
+    // 2.5e-8 of the terms; the drag's trapezoids are the limit); its ∫Te dt and ∫Te² dt
+    // against the samples' trapezoids, which miss the torque's shape between them
+    // (measured 3e-6 and 5e-5).
+    let (ti, ti2) = eng.plant.torque_integrals();
+    let o = eng.plant.observe();
+    let momentum = m.inertia_kgm2 * o.omega_m;
+    let net = ti - sums[0] - 2e-4 * o.t_s;
+    // The rotor runs backwards against the load here: the terms' sizes set the scale.
+    let scale = ti.abs() + sums[0].abs() + 2e-4 * o.t_s;
+    assert!(
+        momentum.abs() > 0.1 * scale,
+        "J·ωm = {momentum}: the rotor must move"
+    );
+    assert!(
+        (net - momentum).abs() < 1e-6 * scale,
+        "∫Te − ∫drag − TL·t = {net} vs J·ωm = {momentum}"
+    );
+    assert!(
+        (ti - sums[1]).abs() < 1e-4 * scale,
+        "∫Te dt {ti} vs samples {}",
+        sums[1]
+    );
+    assert!(
+        (ti2 - sums[2]).abs() < 1e-3 * ti2,
+        "∫Te² dt {ti2} vs samples {}",
+        sums[2]
+    );
 }
 
 #[test]

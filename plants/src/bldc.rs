@@ -1,12 +1,13 @@
 //! The published BLDC motor on a six-switch bridge with shunt and comparator sensing.
 //!
 //! State: phase currents i_u, i_v, i_w \[A\], mechanical speed ωm [rad/s], electrical angle
-//! θe [rad, wrapped to 0..2π], plus energy integrals \[J\]. Between events the conduction
-//! topology is constant and each step (≤ `solver.max_step_s`) is integrated: with the
-//! sinusoidal back-EMF the currents follow the topology's modal form in closed form (see
-//! [`crate::modal`]; exact but for the speed's change within the step, taken to first
-//! order), and speed, angle and energy integrals take RK4's weights on those currents;
-//! the other shapes use classical RK4 throughout.
+//! θe [rad, wrapped to 0..2π], plus energy integrals \[J\] and the torque's ∫Te dt,
+//! ∫Te² dt. Between events the conduction topology is constant and each step
+//! (≤ `solver.max_step_s`) is integrated: with the sinusoidal back-EMF the currents follow
+//! the topology's modal form in closed form (see [`crate::modal`]; exact but for the
+//! speed's change within the step, taken to first order), and speed, angle and the
+//! integrals take RK4's weights on those currents; the other shapes use classical RK4
+//! throughout.
 //!
 //! Mechanics: J·dωm/dt = Te − Bm·ωm − Tc·tanh(ωm/ω0) − TL, dθe/dt = (P/2)·ωm,
 //! Te = (P/2)·λr·Σ i_x·f(θx) so that Te·ωm = Σ e_x·i_x exactly.
@@ -32,7 +33,11 @@ use std::sync::{Arc, OnceLock};
 /// back-EMF's curvature (see [`Knot`]), which costs a few hundred instructions a step.
 pub const CHORD_S: f64 = 40e-6;
 
-const N: usize = 14;
+/// State size: currents, speed, angle, then the integrals (see [`INTEGRALS`]).
+const N: usize = E_SUPPLY + INTEGRALS;
+/// The integrals along the run: the nine energies of [`EnergyLedger`], then ∫Te dt and
+/// ∫Te² dt (exact time averages of the torque, whatever the sampling).
+const INTEGRALS: usize = 11;
 type State = SVector<f64, N>;
 const OMEGA: usize = 3;
 const THETA: usize = 4;
@@ -425,22 +430,14 @@ impl BldcPlant {
         let wm = x[OMEGA];
         let te = self.pp * self.lambda * (x[0] * f.u + x[1] * f.v + x[2] * f.w);
         let (r, dw) = self.stage_rates(p, te, wm, p.airgap);
-        State::from([
-            di[0],
-            di[1],
-            di[2],
-            dw,
-            self.pp * wm,
-            r[0],
-            r[1],
-            r[2],
-            r[3],
-            r[4],
-            r[5],
-            r[6],
-            r[7],
-            r[8],
-        ])
+        let head = [di[0], di[1], di[2], dw, self.pp * wm];
+        State::from_fn(|k, _| {
+            if k < E_SUPPLY {
+                head[k]
+            } else {
+                r[k - E_SUPPLY]
+            }
+        })
     }
 
     /// The state a step of length `h` from `x` reaches, given the derivative there, `k1`;
@@ -507,7 +504,7 @@ impl BldcPlant {
         }
         x1[OMEGA] = w0 + h / 6.0 * (k1[OMEGA] + 2.0 * (a2 + a3) + a4);
         x1[THETA] = th0 + self.pp * h / 6.0 * (w0 + 2.0 * (w2 + w3) + w4);
-        for j in 0..9 {
+        for j in 0..INTEGRALS {
             let k = E_SUPPLY + j;
             x1[k] += h / 6.0 * (k1[k] + 2.0 * (r2[j] + r3[j]) + r4[j]);
         }
@@ -537,9 +534,10 @@ impl BldcPlant {
         (dte - ddrag * k1[OMEGA]) * self.inv_inertia
     }
 
-    /// The energy integrals' rates and dωm/dt at speed `wm`, torque `te`, electrical
-    /// powers `p` and airgap power `airgap` (the same order as in the state).
-    fn stage_rates(&self, p: &Powers, te: f64, wm: f64, airgap: f64) -> ([f64; 9], f64) {
+    /// The integrals' rates (energies, then Te and Te²) and dωm/dt at speed `wm`, torque
+    /// `te`, electrical powers `p` and airgap power `airgap` (the same order as in the
+    /// state).
+    fn stage_rates(&self, p: &Powers, te: f64, wm: f64, airgap: f64) -> ([f64; INTEGRALS], f64) {
         let drag = self.friction * wm + self.coulomb * smooth_sign(wm * self.inv_coulomb_speed);
         let net = te - drag - self.load_nm;
         // A locked rotor is held by a dynamometer, which absorbs the net torque.
@@ -558,6 +556,8 @@ impl BldcPlant {
             self.load_nm * wm,
             airgap,
             p_dyno,
+            te,
+            te * te,
         ];
         (rates, dw)
     }
@@ -883,6 +883,13 @@ impl BldcPlant {
             magnetic: 0.5 * self.inductance * (x[0] * x[0] + x[1] * x[1] + x[2] * x[2]),
             kinetic: 0.5 * self.inertia * x[OMEGA] * x[OMEGA],
         }
+    }
+
+    /// ∫Te dt \[N·m·s\] and ∫Te² dt \[N²·m²·s\] since t = 0: differences over a window give
+    /// the torque's exact time mean and mean square.
+    pub fn torque_integrals(&self) -> (f64, f64) {
+        let x = self.state();
+        (x[E_SUPPLY + 9], x[E_SUPPLY + 10])
     }
 
     fn commit(&mut self, x: State, t: f64) {

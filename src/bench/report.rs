@@ -18,11 +18,11 @@ pub const METRIC_DEFINITIONS: &[(&str, &str)] = &[
     ),
     (
         "torque_mean_nm / torque_ripple_nm",
-        "time-weighted mean and standard deviation of the electromagnetic torque over the window; the ripple includes commutation and PWM ripple",
+        "exact time mean and standard deviation of the electromagnetic torque over the window, from the plant's integrals of Te and Te²; the ripple includes commutation and PWM ripple",
     ),
     (
         "current_rms_a",
-        "RMS phase current over the window, √(mean(i_u² + i_v² + i_w²)/3)",
+        "RMS phase current over the window, √(mean(i_u² + i_v² + i_w²)/3), exact: from the copper loss the plant integrates",
     ),
     (
         "commutation error",
