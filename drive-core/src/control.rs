@@ -13,7 +13,7 @@ use std::cell::Cell;
 /// that is not decided is recorded, and the engine stops with
 /// [`crate::EngineError::UndecidedRead`] after the tick, so a wrong declaration is an
 /// error, never a silently stale value.
-#[derive(Clone, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Debug)]
 pub struct Sensed {
     zc: Abc<bool>,
     decided: Abc<bool>,
@@ -58,6 +58,26 @@ impl Sensed {
         Abc::from_fn(|x| self.misread.get() & 1 << x.index() != 0)
     }
 }
+
+impl Default for Sensed {
+    /// All comparator outputs low and decided, code 0.
+    fn default() -> Self {
+        Sensed::new(Abc::splat(false), 0)
+    }
+}
+
+/// Equal when the same channels are decided with the same values and the code is the
+/// same: undecided values and what was read are not part of what is sensed.
+impl PartialEq for Sensed {
+    fn eq(&self, other: &Self) -> bool {
+        let seen = |s: &Sensed| Abc::from_fn(|x| s.decided.get(x) && s.zc.get(x));
+        self.decided == other.decided
+            && seen(self) == seen(other)
+            && self.current_code == other.current_code
+    }
+}
+
+impl Eq for Sensed {}
 
 /// What a controller returns at each of its ticks. It never touches the bridge itself.
 #[derive(Copy, Clone, Debug, PartialEq, Eq)]
@@ -214,14 +234,16 @@ impl Controller for OpenLoopSixStep {
             .0
             .checked_div(self.step.0)
             .map_or(Ticks::NEVER, |n| Ticks((n + 1) * self.step.0));
-        // The next tick may be in the next state: both floating phases are read.
+        // The next tick may be in the next state: both floating phases are read (every
+        // phase when a state is shorter than the clock, so that a tick may skip one).
         let after = floating_phase(&SIX_STEP_120[(k + 1) % 6]);
+        let short = self.step < self.clock;
         Command {
             pattern,
             duty: self.duty,
             watch,
             reads: Abc::from_fn(|x| {
-                if Some(x) == floating {
+                if short || Some(x) == floating {
                     Ticks::ZERO
                 } else if Some(x) == after {
                     next

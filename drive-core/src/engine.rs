@@ -261,7 +261,11 @@ impl<P: Plant, C: Controller, S: PwmScheme> Engine<P, C, S> {
             self.last_tick = Some(t);
             let sensed = self.plant.sensed(t);
             self.cmd = self.controller.tick(t, &sensed);
-            Self::check_reads(t, &sensed)?;
+            if let Err(e) = Self::check_reads(t, &sensed) {
+                // Its command rests on a value it should not have read: none is applied.
+                self.cmd = Command::OFF;
+                return Err(e);
+            }
             if let Some(message) = self.controller.fault() {
                 self.cmd = Command::OFF;
                 return Err(EngineError::ControllerFault {
@@ -450,6 +454,11 @@ mod tests {
             }
         );
         assert!(err.to_string().contains("Command::reads"), "{err}");
+        assert_eq!(
+            e.command(),
+            &Command::OFF,
+            "the tick's command is not applied"
+        );
         // Declared, the same reads are fine.
         let mut e = engine(
             Command {

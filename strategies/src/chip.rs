@@ -244,8 +244,9 @@ impl Chip {
     }
 
     /// Changes the twelve-step conduction angle [electrical degrees], effective from the
-    /// first crossing after the next clock edge. Rule: 120 ≤ x < 180, twelve-step
-    /// strategies only.
+    /// first crossing after the chip's next tick (a crossing at that tick still takes the
+    /// old angle; [`Chip::table`] reports the new one at once). Rule: 120 ≤ x < 180,
+    /// twelve-step strategies only.
     pub fn set_conduction_angle(&mut self, deg: f64) -> Result<(), ParamError> {
         let strategy = StrategyParams {
             name: self.name,

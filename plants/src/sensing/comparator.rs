@@ -78,6 +78,11 @@ impl History {
     }
 
     fn push(&mut self, tick: u64, state: bool) {
+        debug_assert!(
+            self.newest().is_none_or(|(t, s)| t < tick && s != state),
+            "toggle to {state} at tick {tick} after {:?}",
+            self.newest()
+        );
         self.toggles.push_back((tick, state));
     }
 
@@ -255,7 +260,7 @@ struct Record {
     /// Start \[s\] and length \[s\].
     t0: f64,
     h: f64,
-    /// First and last tick decided in it (the last moves back if the step is cut short).
+    /// Its first and last tick (the last moves back if the step is cut short).
     k_start: u64,
     k_end: u64,
     /// Each phase path's response to its chord and to a floating leg's bend, the neutral
@@ -524,7 +529,8 @@ impl ComparatorBank {
     /// [`drive_core::Command::reads`]) besides the `watched` ones, at tick `now`: reads
     /// come at `now` or later, and the last update is cut short, if at all, there or
     /// later. A channel read from within the last update on, or watched, that was left
-    /// undecided is decided now.
+    /// undecided is decided again: its earlier steps now, the last update as far as it is
+    /// read (see [`ComparatorBank::catch_up`]).
     pub fn declare(&mut self, now: Ticks, watched: Abc<bool>, read_from: Abc<Ticks>) {
         self.read_from = Abc::from_fn(|x| {
             if watched.get(x) {
@@ -740,7 +746,8 @@ impl ComparatorBank {
     }
 
     /// Toggles found so far (all channels). Toggles of an unwatched channel that no read
-    /// needed walked (see [`ComparatorBank::catch_up`]) are not counted.
+    /// needed walked (see [`ComparatorBank::catch_up`]), and of a channel nobody reads,
+    /// are not counted.
     pub fn toggle_count(&self) -> u64 {
         self.front.toggles
     }
