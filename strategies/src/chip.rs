@@ -574,6 +574,66 @@ mod tests {
         c.tick(*now, &Sensed::default())
     }
 
+    /// As [`next`], with every comparator at `level` and decided only where the last
+    /// command declared it (or watched it): what a plant may do. Fails on a read of an
+    /// undeclared output.
+    fn next_declared(c: &mut Chip, now: &mut Ticks, cmd: &Command, level: bool) -> Command {
+        *now = cmd
+            .wake_at
+            .max(Ticks(now.0 + 1))
+            .next_edge(clocks::COMMUTATION);
+        let decided = Abc::from_fn(|x| cmd.watch.get(x) || cmd.reads.get(x) <= *now);
+        let sensed = Sensed::partly(Abc::splat(level), decided, 0);
+        let out = c.tick(*now, &sensed);
+        assert_eq!(
+            sensed.misread(),
+            Abc::splat(false),
+            "undeclared read at {now:?}"
+        );
+        out
+    }
+
+    /// A conduction angle with an empty post part (120°) set just before the tick that
+    /// accepts a crossing: that crossing still takes the old angle, whose post part keeps
+    /// Z_d on the phase declared, so the tick reads only what its command declared.
+    #[test]
+    fn a_conduction_angle_set_between_ticks_never_makes_a_tick_read_undeclared() {
+        let raw = StrategyParams {
+            name: StrategyName::TwelveStepRaw,
+            ..StrategyParams::default()
+        };
+        let mut c = Chip::new(ControlParams::default(), raw, 6, 0.5 / 4095.0, 2000).unwrap();
+        let mut now = Ticks::ZERO;
+        let mut cmd = c.tick(now, &Sensed::default());
+        while c.status().mode != Mode::Running {
+            cmd = next_declared(&mut c, &mut now, &cmd, false);
+        }
+        // In the pre part, Z_d at the pre-crossing level until a crossing is plausible.
+        let post_level = c.shifter.sector().rising;
+        let earliest = c.shifter.earliest_crossing();
+        while now < earliest {
+            cmd = next_declared(&mut c, &mut now, &cmd, !post_level);
+        }
+        let declared = drive_core::Phase::ALL
+            .iter()
+            .filter(|&&x| cmd.reads.get(x) != Ticks::NEVER);
+        assert_eq!(
+            declared.count(),
+            1,
+            "the pre part declares Z_d's phase alone"
+        );
+        let state = c.status().state;
+        c.set_conduction_angle(120.0).unwrap();
+        // The next tick sees the crossing (no guard): accepted there.
+        cmd.wake_at = Ticks(now.0 + 1);
+        cmd = next_declared(&mut c, &mut now, &cmd, post_level);
+        assert_ne!(c.status().state, state, "crossed");
+        // From now on the new angle's empty post part is declared for.
+        for _ in 0..20 {
+            cmd = next_declared(&mut c, &mut now, &cmd, !post_level);
+        }
+    }
+
     #[test]
     fn conduction_angle_changes_only_within_its_rule_and_only_for_twelve_step() {
         let mut c = chip(5);
