@@ -1,0 +1,104 @@
+//! The steps kept for comparator channels nobody reads (see [`super::ComparatorBank`]):
+//! each step's filter responses and ringing, enough to walk a channel over it later.
+
+use super::Ring;
+use crate::sensing::foh::Foh;
+use crate::sensing::rc::CubicRc;
+use drive_core::Abc;
+
+/// Steps kept for channels nobody reads: enough to walk them later, with room for 16
+/// (a channel still undecided over the oldest is decided before it goes).
+pub(super) const RECORDS: usize = 16;
+
+/// One step's inputs to the three channels: the filter responses over it and the ringing.
+#[derive(Copy, Clone, Debug)]
+pub(super) struct Record {
+    /// Start \[s\] and length \[s\].
+    pub(super) t0: f64,
+    pub(super) h: f64,
+    /// Its first and last tick (the last moves back if the step is cut short).
+    pub(super) k_start: u64,
+    pub(super) k_end: u64,
+    /// Each phase path's response to its chord and to a floating leg's bend, the neutral
+    /// path's response (see [`super::Channel::new`]).
+    pub(super) fx: [Foh; 3],
+    pub(super) bend: [Option<CubicRc>; 3],
+    pub(super) fn_: Foh,
+    /// e^{−h/τp}, e^{−h/τn}, and the decays at the first tick.
+    pub(super) eh: (f64, f64),
+    pub(super) first: (f64, f64),
+    /// The ringing over the step, and its envelope at the start \[V\].
+    pub(super) ring: Ring,
+    pub(super) env0: f64,
+}
+
+/// A ring of the latest [`RECORDS`] steps by sequence number.
+#[derive(Clone, Debug)]
+pub(super) struct Records {
+    pub(super) buf: [Record; RECORDS],
+    /// Sequence number of the oldest.
+    pub(super) first: u64,
+    pub(super) len: usize,
+}
+
+impl Records {
+    /// One empty step at t = 0, settled on `y`, `y_n`.
+    pub(super) fn new(y: &Abc<f64>, y_n: f64) -> Self {
+        let rest = |v: f64| Foh::new(v, v, v, 0.0, 1.0);
+        let rec = Record {
+            t0: 0.0,
+            h: 0.0,
+            k_start: 1,
+            k_end: 0,
+            fx: y.to_array().map(rest),
+            bend: [None; 3],
+            fn_: rest(y_n),
+            eh: (1.0, 1.0),
+            first: (1.0, 1.0),
+            ring: Ring::default(),
+            env0: 0.0,
+        };
+        Records {
+            buf: [rec; RECORDS],
+            first: 0,
+            len: 1,
+        }
+    }
+
+    pub(super) fn is_full(&self) -> bool {
+        self.len == RECORDS
+    }
+
+    /// Appends `rec`, dropping the oldest when full; returns its sequence number.
+    pub(super) fn push(&mut self, rec: Record) -> u64 {
+        if self.is_full() {
+            self.first += 1;
+            self.len -= 1;
+        }
+        let seq = self.first + self.len as u64;
+        self.buf[(seq % RECORDS as u64) as usize] = rec;
+        self.len += 1;
+        seq
+    }
+
+    pub(super) fn newest_seq(&self) -> u64 {
+        self.first + self.len as u64 - 1
+    }
+
+    pub(super) fn get(&self, seq: u64) -> &Record {
+        debug_assert!(
+            (self.first..=self.newest_seq()).contains(&seq),
+            "step {seq} is not recorded"
+        );
+        &self.buf[(seq % RECORDS as u64) as usize]
+    }
+
+    pub(super) fn newest(&self) -> &Record {
+        self.get(self.newest_seq())
+    }
+
+    pub(super) fn newest_mut(&mut self) -> &mut Record {
+        let seq = self.newest_seq();
+        &mut self.buf[(seq % RECORDS as u64) as usize]
+    }
+}
