@@ -205,9 +205,6 @@ pub struct BldcPlant {
     fsal: Option<(State, State)>,
     /// Latest clock edge reported as a sensing stop: changes up to it have been sampled.
     reported: Ticks,
-    /// From which instant each comparator output is read or watched (see
-    /// [`drive_core::Command::reads`]): the others are left undecided.
-    read_from: Abc<Ticks>,
     stats: PlantStats,
 }
 
@@ -258,7 +255,6 @@ impl BldcPlant {
             lin: circuit::state_index(&modes),
             modal: matches!(m.back_emf, BackEmfShape::Sinusoidal),
             reported: Ticks::ZERO,
-            read_from: drive_core::Command::READS_ALL,
             lookahead: None,
             base_hint: (0.0, 0.0, 1.0),
             fsal: None,
@@ -1052,13 +1048,6 @@ impl Plant for BldcPlant {
     }
 
     fn advance(&mut self, until: Ticks, watch: Watch) -> PlantStop {
-        self.read_from = Abc::from_fn(|x| {
-            if watch.channels.get(x) {
-                Ticks::ZERO
-            } else {
-                watch.reads.get(x)
-            }
-        });
         self.cmp
             .declare(Ticks::at_or_after(self.t).0, watch.channels, watch.reads);
         // Unwatched comparators are walked only as far as they are read: at the instant
@@ -1070,7 +1059,7 @@ impl Plant for BldcPlant {
     }
 
     fn sensed(&self, at: Ticks) -> Sensed {
-        let decided = Abc::from_fn(|x| self.read_from.get(x) <= at);
+        let decided = self.cmp.decided_at(at);
         Sensed::partly(self.cmp.outputs_at(at), decided, self.cur.code_at(at))
     }
 }

@@ -567,21 +567,22 @@ mod tests {
     /// Runs the chip the way the engine does with constant inputs: at t = 0, then at each
     /// requested wake-up (rounded up to the 0.64 µs clock). Returns (instant, command).
     fn next(c: &mut Chip, now: &mut Ticks, cmd: &Command) -> Command {
-        *now = cmd
-            .wake_at
-            .max(Ticks(now.0 + 1))
-            .next_edge(clocks::COMMUTATION);
+        *now = next_edge(*now, cmd);
         c.tick(*now, &Sensed::default())
+    }
+
+    /// The clock edge of the chip's next tick after `now` under command `cmd`.
+    fn next_edge(now: Ticks, cmd: &Command) -> Ticks {
+        cmd.wake_at
+            .max(Ticks(now.0 + 1))
+            .next_edge(clocks::COMMUTATION)
     }
 
     /// As [`next`], with every comparator at `level` and decided only where the last
     /// command declared it (or watched it): what a plant may do. Fails on a read of an
     /// undeclared output.
     fn next_declared(c: &mut Chip, now: &mut Ticks, cmd: &Command, level: bool) -> Command {
-        *now = cmd
-            .wake_at
-            .max(Ticks(now.0 + 1))
-            .next_edge(clocks::COMMUTATION);
+        *now = next_edge(*now, cmd);
         let decided = Abc::from_fn(|x| cmd.watch.get(x) || cmd.reads.get(x) <= *now);
         let sensed = Sensed::partly(Abc::splat(level), decided, 0);
         let out = c.tick(*now, &sensed);

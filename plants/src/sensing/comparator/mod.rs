@@ -397,10 +397,7 @@ impl ComparatorBank {
         let k_end = Ticks::at_or_before(t1).0;
         // A channel is decided over the step if a read can reach into it (reads see the
         // output a delay back).
-        let delay = self.front.delay;
-        let live = Abc::from_fn(|x| {
-            watched.get(x) || self.read_from.get(x).0.saturating_sub(delay) <= k_end
-        });
+        let live = Abc::from_fn(|x| watched.get(x) || self.read_within(x, k_end));
         for x in Phase::ALL {
             if live.get(x) {
                 self.wake(x, u64::MAX);
@@ -445,16 +442,24 @@ impl ComparatorBank {
                 read_from.get(x)
             }
         });
-        let delay = self.front.delay;
+        let k_end = self.records.newest().k_end;
         for x in Phase::ALL {
-            let wake = self.dormant[x.index()].is_some_and(|_| {
-                let k_end = self.records.newest().k_end;
-                self.read_from.get(x).0.saturating_sub(delay) <= k_end
-            });
-            if wake {
+            if self.dormant[x.index()].is_some() && self.read_within(x, k_end) {
                 self.wake(x, now.0);
             }
         }
+    }
+
+    /// Whether a read of channel `x` can reach tick `k` or earlier (a read sees the
+    /// output a delay back).
+    fn read_within(&self, x: Phase, k: u64) -> bool {
+        self.read_from.get(x).0.saturating_sub(self.front.delay) <= k
+    }
+
+    /// The channels decided for a read at instant `at`: watched, or read from `at` or
+    /// earlier (see [`ComparatorBank::declare`]).
+    pub fn decided_at(&self, at: Ticks) -> Abc<bool> {
+        Abc::from_fn(|x| self.read_from.get(x) <= at)
     }
 
     /// Records the step [t0, t1] (the filters' responses over it, from their present
@@ -810,22 +815,25 @@ impl Front {
     /// Whether `c`'s output may toggle at a tick in `a..=b` of its step, with noise in
     /// [n_lo, n_hi]: the filter decays at both ends, the ringing's envelope at `a`.
     fn may_toggle_over(&self, c: &Channel, a: u64, b: u64, n_lo: f64, n_hi: f64) -> bool {
-        let (pa, na) = self.decay(c, a);
-        let (pb, nb) = self.decay(c, b);
+        let (ta, tb, w, env) = self.over(c, a, b);
+        self.may_toggle(c, ta, tb, w, env, n_lo, n_hi)
+    }
+
+    /// Ticks `a..=b` of `c`'s step as the bounds take them: τ at both ends, the filter
+    /// decays there, and the ringing's envelope at `a` (it only decays after).
+    fn over(&self, c: &Channel, a: u64, b: u64) -> (f64, f64, [f64; 4], f64) {
         let (ta, tb) = (a as f64 * TICK_S - c.t0, b as f64 * TICK_S - c.t0);
-        let env = self.ring_envelope_at(a);
-        self.may_toggle(c, ta, tb, [pa, na, pb, nb], env, n_lo, n_hi)
+        let (pa, na) = self.decay(c, a);
+        let (pb, nb) = if a == b { (pa, na) } else { self.decay(c, b) };
+        (ta, tb, [pa, na, pb, nb], self.ring_envelope_at(a))
     }
 
     /// The output over ticks `a..=b` of `c`'s step if the comparator input is beyond a
     /// threshold there whatever the noise and ringing: then it does not depend on the
     /// ticks before.
     fn certain_over(&self, c: &Channel, a: u64, b: u64) -> Option<bool> {
-        let (ta, tb) = (a as f64 * TICK_S - c.t0, b as f64 * TICK_S - c.t0);
-        let (pa, na) = self.decay(c, a);
-        let (pb, nb) = if a == b { (pa, na) } else { self.decay(c, b) };
-        let env = self.ring_envelope_at(a);
-        let (lo, hi) = self.range(c, ta, tb, [pa, na, pb, nb], env);
+        let (ta, tb, w, env) = self.over(c, a, b);
+        let (lo, hi) = self.range(c, ta, tb, w, env);
         if lo - self.noise_a > self.half_h {
             Some(true)
         } else if hi + self.noise_a < -self.half_h {
@@ -884,15 +892,14 @@ impl Front {
         };
         let (v0, v1) = (k0.v.to_array(), k1.v.to_array());
         let (r0, r1) = (k0.emf_rate.to_array(), k1.emf_rate.to_array());
+        let y = self.y.to_array();
         let chord: [f64; 3] = std::array::from_fn(|j| (v1[j] - v0[j]) * inv_h);
         Record {
             t0,
             h,
             k_start,
             k_end: Ticks::at_or_before(t1).0,
-            fx: std::array::from_fn(|j| {
-                Foh::ramp(self.y.to_array()[j], v0[j], chord[j], self.tau_p)
-            }),
+            fx: std::array::from_fn(|j| Foh::ramp(y[j], v0[j], chord[j], self.tau_p)),
             // A floating leg's input is the neutral's chord plus its back-EMF's Hermite
             // cubic: its chord plus a cubic vanishing at both ends, filtered from rest.
             bend: std::array::from_fn(|j| match (r0[j], r1[j]) {
