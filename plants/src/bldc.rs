@@ -251,7 +251,7 @@ impl BldcPlant {
             cur,
             same_instant_events: 0,
             muted: [false; 3],
-            forms: (0..125).map(|_| OnceLock::new()).collect(),
+            forms: (0..circuit::STATES).map(|_| OnceLock::new()).collect(),
             lin: circuit::state_index(&modes),
             modal: matches!(m.back_emf, BackEmfShape::Sinusoidal),
             reported: Ticks::ZERO,

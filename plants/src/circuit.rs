@@ -61,7 +61,10 @@ impl Conduction {
     }
 }
 
-/// The index, 0..125, of the legs' conduction states `modes` (base 5, u first).
+/// How many conduction states the three legs have together: five each.
+pub const STATES: usize = 125;
+
+/// The index, 0..[`STATES`], of the legs' conduction states `modes` (base 5, u first).
 pub fn state_index(modes: &Abc<Conduction>) -> usize {
     let m = modes.map(|c| c as usize);
     m.u * 25 + m.v * 5 + m.w
@@ -499,7 +502,7 @@ mod tests {
 
     #[test]
     fn state_indices_round_trip() {
-        for k in 0..125 {
+        for k in 0..STATES {
             assert_eq!(state_index(&state_at(k)), k);
         }
     }
@@ -555,7 +558,7 @@ mod tests {
             v: -0.2,
             w: -0.7,
         };
-        for k in 0..125 {
+        for k in 0..STATES {
             let modes = state_at(k);
             let s = c.solve(&modes, &i, &e);
             let follows = Circuit::follows_neutral(&modes);

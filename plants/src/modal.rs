@@ -274,7 +274,7 @@ mod tests {
     #[test]
     fn every_conduction_state_has_a_modal_form() {
         let c = Circuit::new(&MotorParams::default(), &PowerStageParams::default());
-        for k in 0..125 {
+        for k in 0..crate::circuit::STATES {
             let modes = crate::circuit::state_at(k);
             let lin = c.linearise(&modes);
             let md = Modal::new(&modes, &lin).unwrap_or_else(|| panic!("{modes:?}"));
