@@ -706,3 +706,86 @@ fn a_generating_motor_rectifies_through_its_diodes_in_the_right_direction() {
         assert!(off < bound, "max step {max_step_s:e} s: balance {e:?}");
     }
 }
+
+/// Locked rotor (no back-EMF), u→v conducting, then every switch off: the current
+/// freewheels through u's low diode, the shunt and v's high diode into the supply,
+/// 2(Lp + M)·di/dt = −(V_DD + 2V_f) − (2R + 2R_d + R_sh)·i, so it reaches zero after
+/// τ·ln(1 + i0·R_loop/V_loop). The located event must be there to within the current
+/// tolerance of the search (1e-9 A) over the current's slope at zero.
+#[test]
+fn a_freewheel_ends_where_the_analytic_decay_reaches_zero() {
+    let params = PlantParams::default();
+    let (m, ps) = (&params.motor, &params.power_stage);
+    let r_loop = 2.0 * m.resistance_ohm + 2.0 * ps.diode_resistance_ohm + ps.shunt_ohm;
+    let v_loop = ps.supply_v + 2.0 * ps.diode_forward_v;
+    let l_loop = 2.0 * (m.self_inductance_h + m.mutual_inductance_h);
+    let t_open = Ticks::from_seconds(3e-3).unwrap();
+    let ctl = Switch {
+        at: t_open,
+        before: hold("VGF", 2000, Abc::splat(false)),
+        after: hold("FFF", 2000, Abc::splat(false)),
+    };
+    let mut eng = engine(params.clone(), ctl);
+    eng.plant.set_rotor(0.3, 0.0, true);
+    let mut opened = None;
+    let mut zero_at = None;
+    eng.run_until(Ticks::from_seconds(4e-3).unwrap(), |e, r| {
+        let o = e.plant.observe();
+        if o.t_s < t_open.seconds() {
+            return;
+        }
+        opened.get_or_insert((o.t_s, o.i.u));
+        if r == StopReason::Diode && zero_at.is_none() {
+            assert_eq!((o.i.u, o.i.v), (0.0, 0.0), "both currents end at once");
+            zero_at = Some(o.t_s);
+        }
+    })
+    .unwrap();
+    let (t0, i0) = opened.unwrap();
+    assert!(i0 > 0.5, "a real current was flowing: {i0}");
+    let want = l_loop / r_loop * (1.0 + i0 * r_loop / v_loop).ln();
+    let got = zero_at.expect("the current reached zero") - t0;
+    let slope = v_loop / l_loop; // |di/dt| at i = 0 [A/s]
+    assert!(
+        (got - want).abs() < 1e-9 / slope + 1e-13,
+        "zero after {got} s, analytic {want} s"
+    );
+}
+
+/// The instants at which a freewheeling current reaches zero, chopping u→v at a constant
+/// speed low enough for the current to die out in every off-time, for a given solver step.
+fn freewheel_zeros(max_step_s: f64) -> Vec<f64> {
+    let mut params = PlantParams::default();
+    params.solver.max_step_s = max_step_s;
+    let mut eng = engine(params, Hold(hold("VGF", 300, Abc::splat(false))));
+    eng.plant.set_rotor(0.0, 3000.0, true);
+    let mut zeros = Vec::new();
+    let mut was = eng.plant.observe().conduction;
+    eng.run_until(Ticks::from_seconds(2e-3).unwrap(), |e, _| {
+        let now = e.plant.observe();
+        for p in Phase::ALL {
+            if was.get(p).is_diode() && now.conduction.get(p) == Conduction::Open {
+                assert_eq!(now.i.get(p), 0.0);
+                zeros.push(now.t_s);
+            }
+        }
+        was = now.conduction;
+    })
+    .unwrap();
+    zeros
+}
+
+#[test]
+fn freewheel_zeros_do_not_depend_on_the_step_length() {
+    // Reference: steps of 0.5 µs, over which the dense output's guess is exact enough
+    // that the search never needs a correction.
+    let fine = freewheel_zeros(0.5e-6);
+    let coarse = freewheel_zeros(SolverParams::default().max_step_s);
+    assert!(fine.len() >= 10, "the current dies out in the off-times: {fine:?}");
+    assert_eq!(fine.len(), coarse.len(), "{fine:?} vs {coarse:?}");
+    // Both searches stop within 1e-9 A of zero, and these currents fall at kA/s or
+    // faster: the two must agree to a picosecond.
+    for (f, c) in fine.iter().zip(&coarse) {
+        assert!((f - c).abs() < 1e-12, "zero at {c} s, reference {f} s");
+    }
+}
