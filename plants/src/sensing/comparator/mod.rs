@@ -103,6 +103,10 @@ impl History {
 
     /// Earliest toggle tick strictly after `tick`.
     fn first_after(&self, tick: u64) -> Option<u64> {
+        // Usually there is none: the newest toggle says so without a walk.
+        if self.newest().is_none_or(|(t, _)| t <= tick) {
+            return None;
+        }
         self.toggles
             .iter()
             .rev()
