@@ -183,6 +183,9 @@ pub struct BldcPlant {
     h_max: f64,
     x: State,
     t: f64,
+    /// The first tick at or after `t`, and whether `t` is on it: asked for several times
+    /// per step, converted once.
+    tick: (Ticks, bool),
     gates: Gates,
     modes: Abc<Conduction>,
     load_nm: f64,
@@ -248,6 +251,7 @@ impl BldcPlant {
             h_max: params.solver.max_step_s,
             x,
             t: 0.0,
+            tick: (Ticks::ZERO, true),
             gates: Gates::OFF,
             modes,
             load_nm: 0.0,
@@ -911,6 +915,7 @@ impl BldcPlant {
     fn commit(&mut self, x: State, t: f64) {
         self.x = x;
         self.t = t;
+        self.tick = Ticks::at_or_after(t);
         if !(0.0..TAU).contains(&self.x[THETA]) {
             self.x[THETA] = self.x[THETA].rem_euclid(TAU);
         }
@@ -982,11 +987,12 @@ impl BldcPlant {
         None
     }
 
-    /// Moves the reported time to `t` inside the lookahead step. The sensing chains have
-    /// been advanced over the whole step already; the state there is computed only when
-    /// asked for (see [`BldcPlant::state`]).
-    fn serve_at(&mut self, t: f64) {
-        self.t = t;
+    /// Moves the reported time to tick `k` inside the lookahead step. The sensing chains
+    /// have been advanced over the whole step already; the state there is computed only
+    /// when asked for (see [`BldcPlant::state`]).
+    fn serve_at(&mut self, k: Ticks) {
+        self.t = k.seconds();
+        self.tick = (k, true);
     }
 
     /// The state at the present time: inside a lookahead step, a step of its own from the
@@ -1006,13 +1012,13 @@ impl BldcPlant {
     }
 
     /// Serves a stop from the step already integrated ahead, or finishes that step.
-    fn serve_lookahead(&mut self, t_end: f64, watch: Watch) -> Option<PlantStop> {
+    fn serve_lookahead(&mut self, until: Ticks, watch: Watch) -> Option<PlantStop> {
         let t1 = self.lookahead.as_ref()?.t1;
-        let (now, _) = Ticks::at_or_after(self.t);
-        if let Some(p) = self.pending_sample(watch, now) {
+        let t_end = until.seconds();
+        if let Some(p) = self.pending_sample(watch, self.tick.0) {
             let ps = p.seconds();
             if ps < t1 - 1e-15 && ps <= t_end + 1e-15 {
-                self.serve_at(ps);
+                self.serve_at(p);
                 self.reported = p;
                 return Some(PlantStop::Sensing(p));
             }
@@ -1021,7 +1027,7 @@ impl BldcPlant {
             if t_end <= self.t {
                 return Some(PlantStop::Reached);
             }
-            self.serve_at(t_end);
+            self.serve_at(until);
             return Some(PlantStop::Reached);
         }
         let la = self.lookahead.take()?;
@@ -1031,8 +1037,7 @@ impl BldcPlant {
     /// Ends any lookahead at the present time, before the dynamics change.
     fn settle(&mut self) {
         if self.lookahead.is_some() {
-            let (now, _) = Ticks::at_or_after(self.t);
-            self.cmp.truncate_at(now);
+            self.cmp.truncate_at(self.tick.0);
             self.cur.truncate_at(self.t);
             self.x = self.state();
             let la = self.lookahead.take().expect("checked above");
@@ -1069,12 +1074,12 @@ impl Plant for BldcPlant {
 
     fn advance(&mut self, until: Ticks, watch: Watch) -> PlantStop {
         self.cmp
-            .declare(Ticks::at_or_after(self.t).0, watch.channels, watch.reads);
+            .declare(self.tick.0, watch.channels, watch.reads);
         // Unwatched comparators are walked only as far as they are read: at the instant
         // returned, and from now on for the channels watched now.
         self.cmp.watch(watch.channels);
         let stop = self.step_to(until, watch);
-        self.cmp.catch_up(Ticks::at_or_after(self.t).0);
+        self.cmp.catch_up(self.tick.0);
         stop
     }
 
@@ -1089,11 +1094,11 @@ impl BldcPlant {
     fn step_to(&mut self, until: Ticks, watch: Watch) -> PlantStop {
         let t_end = until.seconds();
         loop {
-            if let Some(stop) = self.serve_lookahead(t_end, watch) {
+            if let Some(stop) = self.serve_lookahead(until, watch) {
                 return stop;
             }
             let t0 = self.t;
-            let (now, on_tick) = Ticks::at_or_after(t0);
+            let (now, on_tick) = self.tick;
             let unreported = self.unreported(watch);
             let pending = unreported.map(|tv| Self::sample_edge(tv, watch, now));
             if on_tick && pending == Some(now) {
@@ -1101,7 +1106,9 @@ impl BldcPlant {
                 return PlantStop::Sensing(now);
             }
             if t0 >= t_end - 1e-15 {
-                self.t = self.t.max(t_end);
+                if t_end > self.t {
+                    self.serve_at(until);
+                }
                 return PlantStop::Reached;
             }
             // Integrate up to the horizon, not just to `until`: instants before it are
@@ -1189,11 +1196,11 @@ impl BldcPlant {
                     event,
                 });
                 if let Some(e) = sample.filter(|e| e.seconds() <= t_end + 1e-15) {
-                    self.serve_at(e.seconds());
+                    self.serve_at(e);
                     self.reported = e;
                     return PlantStop::Sensing(e);
                 }
-                self.serve_at(t_end);
+                self.serve_at(until);
                 return PlantStop::Reached;
             }
             if let Some(stop) = self.finish_step(x1, f1, t0, t1, s1, event) {
