@@ -7,7 +7,7 @@ use bldc_drive::DriveConfig;
 use bldc_drive::drive::build;
 use bldc_drive::drive_core::{Carrier, Command, Controller, Engine, Sensed, StopReason, Ticks};
 use bldc_drive::plants::BldcPlant;
-use bldc_drive::strategies::{StrategyName, Strategy};
+use bldc_drive::strategies::{ChipStatus, Strategy, StrategyName};
 
 /// The chip, with every comparator output declared read at every tick.
 struct ReadsAll(Box<dyn Strategy>);
@@ -27,17 +27,30 @@ impl Controller for ReadsAll {
     }
 }
 
-/// Every stop of a run to `secs` as (instant, reason), and the true state at its end.
+/// Every stop of a run to `secs` as (instant, reason), and the true state at its end; the
+/// rotor is stopped and held from `stall_at` \[s\] on.
 fn stops<C: Controller, S: bldc_drive::drive_core::PwmScheme>(
     mut e: Engine<BldcPlant, C, S>,
     secs: f64,
+    stall_at: f64,
 ) -> (Vec<(Ticks, StopReason)>, String, Engine<BldcPlant, C, S>) {
     let mut seen = Vec::new();
-    let end = Ticks::from_seconds(secs).unwrap();
-    e.run_until(end, |e, r| seen.push((e.now(), r))).unwrap();
+    let mut run = |e: &mut Engine<BldcPlant, C, S>, until: f64| {
+        let end = Ticks::from_seconds(until).unwrap();
+        e.run_until(end, |e, r| seen.push((e.now(), r))).unwrap();
+    };
+    if stall_at < secs {
+        run(&mut e, stall_at);
+        let theta = e.plant.observe().theta_e;
+        e.plant.set_rotor(theta, 0.0, true);
+    }
+    run(&mut e, secs);
     let end_state = format!("{:?} {:?}", e.plant.observe(), e.plant.energy());
     (seen, end_state, e)
 }
+
+/// A stall that never comes.
+const NEVER: f64 = f64::INFINITY;
 
 fn without_sensing(stops: &[(Ticks, StopReason)]) -> Vec<(Ticks, StopReason)> {
     stops
@@ -47,9 +60,13 @@ fn without_sensing(stops: &[(Ticks, StopReason)]) -> Vec<(Ticks, StopReason)> {
         .collect()
 }
 
-fn compare(name: StrategyName, secs: f64) {
+/// Runs `name` at `rpm` for `secs` twice (the rotor stalled from `stall_at`, see
+/// [`stops`]), declaring reads and reading all; returns the chip's status at the end (the
+/// same for both).
+fn compare(name: StrategyName, rpm: f64, secs: f64, stall_at: f64) -> ChipStatus {
     let mut cfg = DriveConfig::default();
     cfg.strategy.name = name;
+    cfg.control.speed_ref_rpm = rpm;
     let declared = build(&cfg).unwrap();
     // The same drive as `build` assembles it, with the chip wrapped.
     let all = Engine::new(
@@ -59,8 +76,8 @@ fn compare(name: StrategyName, secs: f64) {
         Carrier::default(),
         cfg.power_stage.dead_time(),
     );
-    let (a, end_a, ea) = stops(declared, secs);
-    let (b, end_b, eb) = stops(all, secs);
+    let (a, end_a, ea) = stops(declared, secs, stall_at);
+    let (b, end_b, eb) = stops(all, secs, stall_at);
     // The runs are worth comparing: start-up, hand-over and glitch-driven sensing stops.
     assert!(
         ea.controller.status().crossings > 100,
@@ -93,14 +110,25 @@ fn compare(name: StrategyName, secs: f64) {
         ea.plant.comparators().work(),
         eb.plant.comparators().work()
     );
+    ea.controller.status()
 }
 
 #[test]
 fn six_step_with_declared_reads_runs_like_one_reading_everything() {
-    compare(StrategyName::SixStep120, 1.2);
+    compare(StrategyName::SixStep120, 3000.0, 1.2, NEVER);
 }
 
 #[test]
 fn twelve_step_with_declared_reads_runs_like_one_reading_everything() {
-    compare(StrategyName::TwelveStepDf, 1.2);
+    compare(StrategyName::TwelveStepDf, 3000.0, 1.2, NEVER);
+}
+
+/// LM at 2000 rpm forces crossings its window missed; then the rotor is stopped and held,
+/// and the step-miss restarts, their alignments and hand-overs are fed only what the chip
+/// declared, too.
+#[test]
+fn forced_crossings_and_restarts_with_declared_reads_run_like_reading_everything() {
+    let s = compare(StrategyName::TwelveStepLm, 2000.0, 2.0, 1.2);
+    assert!(s.forced_crossings >= 1, "{s:?}");
+    assert!(s.restarts >= 1, "{s:?}");
 }
