@@ -424,12 +424,7 @@ impl ComparatorBank {
                 }
             }
         }
-        let (h, (eh_p, eh_n)) = (rec.h, rec.eh);
-        f.y = Abc::from_fn(|x| {
-            let j = x.index();
-            rec.fx[j].at_decayed(h, eh_p) + rec.bend[j].map_or(0.0, |b| b.at_decayed(h, eh_p))
-        });
-        f.y_n = rec.fn_.at_decayed(h, eh_n);
+        (f.y, f.y_n) = rec.filters_at(rec.h, rec.eh);
     }
 
     /// Declares from which instant each channel is read (`read_from`, see
@@ -571,14 +566,13 @@ impl ComparatorBank {
         let rec = self.records.newest();
         let f = &mut self.front;
         let tau = t.seconds() - rec.t0;
+        let decays = ((-tau / f.tau_p).exp(), (-tau / f.tau_n).exp());
+        (f.y, f.y_n) = rec.filters_at(tau, decays);
         for x in Phase::ALL {
-            let j = x.index();
-            *f.y.get_mut(x) = rec.fx[j].at(tau) + rec.bend[j].map_or(0.0, |b| b.at(tau));
-            let h = &mut f.hist[j];
+            let h = &mut f.hist[x.index()];
             f.toggles -= h.truncate_after(t.0);
             *f.out.get_mut(x) = h.newest().map_or(h.base, |t| t.1);
         }
-        f.y_n = rec.fn_.at(tau);
     }
 
     /// Brings the channels nobody watches up to what is read at instant `at` (the output at

@@ -32,6 +32,18 @@ pub(super) struct Record {
     pub(super) env0: f64,
 }
 
+impl Record {
+    /// The filters' outputs τ \[s\] into the step, phase paths and neutral path \[V\],
+    /// given their decays there, e^{−τ/τp} and e^{−τ/τn}.
+    pub(super) fn filters_at(&self, tau: f64, (dp, dn): (f64, f64)) -> (Abc<f64>, f64) {
+        let y = Abc::from_fn(|x| {
+            let j = x.index();
+            self.fx[j].at_decayed(tau, dp) + self.bend[j].map_or(0.0, |b| b.at_decayed(tau, dp))
+        });
+        (y, self.fn_.at_decayed(tau, dn))
+    }
+}
+
 /// A ring of the latest [`RECORDS`] steps by sequence number.
 #[derive(Clone, Debug)]
 pub(super) struct Records {
