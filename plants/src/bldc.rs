@@ -286,7 +286,9 @@ impl BldcPlant {
     }
 
     /// Sets rotor angle θe \[rad\] and speed \[rpm\]; `lock` holds the speed constant from now on
-    /// (a dynamometer), otherwise the rotor is free.
+    /// (a dynamometer), otherwise the rotor is free. The comparators start afresh, settled
+    /// on the terminals of the new state (a rotor that jumps has no filter history): their
+    /// toggle history and work counters restart from zero.
     pub fn set_rotor(&mut self, theta_e: f64, speed_rpm: f64, lock: bool) {
         self.settle();
         self.x[THETA] = theta_e.rem_euclid(TAU);
