@@ -768,8 +768,9 @@ impl BldcPlant {
                     }
                     let dh = -x[k] / f[k];
                     // The first-order state's error, ½·dh²·|d²i/dt²|, with the current's
-                    // curvature taken from the step's change of slope.
-                    let curl = 0.5 * dh * dh * (f[k] - d.f0[k]).abs() / h_full;
+                    // curvature taken from its slopes at the step's start and here, h apart
+                    // (h = 0 gives no finite estimate, and the loop goes on).
+                    let curl = 0.5 * dh * dh * (f[k] - d.f0[k]).abs() / h;
                     if x[k].abs() < NEAR_ZERO_A
                         && curl < 1e-12
                         && (0.0..=h_full).contains(&(h + dh))
