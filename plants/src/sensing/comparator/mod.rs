@@ -750,8 +750,12 @@ impl Front {
         let (k_end, stop) = (cur.k_end, k_stop.min(cur.k_end));
         let (a, n) = (self.noise_a, self.noise_n);
         let mut k = cur.k;
-        // The first block is the rest of the step: usually ruled out at once.
-        let mut span = (k_end / n - k / n + 1).min(MAX_SPAN);
+        // A scan resumed mid-step tries the rest of the step first: usually ruled out at
+        // once. A fresh one was opened because the whole step was not (see
+        // `Front::open`), mostly for the filters' transient right after its start: it
+        // starts with blocks of 4 segments and doubles from there.
+        let rest = (k_end / n - k / n + 1).min(MAX_SPAN);
+        let mut span = if k == c.k_s { rest.min(4) } else { rest };
         while k <= stop {
             let m = k / n; // noise sample index, one per segment
             if span > 1 {
