@@ -55,7 +55,7 @@ fn main() {
     let report = format!(
         "{:.0} rpm, {:.1}× real time over 2–3 s\n\
          per simulated second: {} steps, {} diode events, {} retries\n\
-         comparators: {} scans, {} ticks walked, {} noise segments\n\
+         comparators: {} scans, {} ticks walked, {} noise segments, {} blocks of them\n\
          stops: {reasons:?}\n",
         e.plant.observe().speed_rpm,
         1.0 / dt,
@@ -64,7 +64,8 @@ fn main() {
         p1.retries - p0.retries,
         c1.scans - c0.scans,
         c1.ticks_scanned - c0.ticks_scanned,
-        c1.segments - c0.segments
+        c1.segments - c0.segments,
+        c1.blocks - c0.blocks
     );
     // A reader that stops early (`| head -1`) is not an error worth a panic.
     let _ = std::io::stdout().write_all(report.as_bytes());

@@ -266,6 +266,8 @@ pub struct ScanWork {
     pub ticks_scanned: u64,
     /// Noise segments bounded one by one.
     pub segments: u64,
+    /// Blocks of several noise segments bounded at once.
+    pub blocks: u64,
 }
 
 /// The front end and the outputs: everything but the scans left pending, which are kept
@@ -759,6 +761,7 @@ impl Front {
         while k <= stop {
             let m = k / n; // noise sample index, one per segment
             if span > 1 {
+                self.work.blocks += 1;
                 let e = m.saturating_add(span).saturating_mul(n).saturating_sub(1);
                 let e = e.min(k_end);
                 if self.may_toggle_over(c, k, e, -a, a) {
