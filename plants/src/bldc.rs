@@ -35,9 +35,11 @@ pub const CHORD_S: f64 = 40e-6;
 
 /// A freewheeling current this close to zero \[A\] at the dense output's guess of its zero
 /// is taken there by one Newton step along the state's derivative, x + f·dh, rather than a
-/// new step from the start, where that errs by less than 1e-12 A (½·dh²·|d²i/dt²|, three
-/// orders below the 1e-9 A the search accepts).
+/// new step from the start, where that errs by less than [`SHORTCUT_ERR_A`].
 const NEAR_ZERO_A: f64 = 1e-6;
+/// The most the one-step shortcut to a current's zero may err, ½·dh²·|d²i/dt²| \[A\]:
+/// three orders below the 1e-9 A the search accepts.
+const SHORTCUT_ERR_A: f64 = 1e-12;
 
 /// State size: currents, speed, angle, then the integrals (see [`INTEGRALS`]).
 const N: usize = E_SUPPLY + INTEGRALS;
@@ -772,7 +774,7 @@ impl BldcPlant {
                     // (h = 0 gives no finite estimate, and the loop goes on).
                     let curl = 0.5 * dh * dh * (f[k] - d.f0[k]).abs() / h;
                     if x[k].abs() < NEAR_ZERO_A
-                        && curl < 1e-12
+                        && curl < SHORTCUT_ERR_A
                         && (0.0..=h_full).contains(&(h + dh))
                     {
                         // So close that the state there is x + f·dh: no second step from x0.
