@@ -781,7 +781,10 @@ fn freewheel_zeros_do_not_depend_on_the_step_length() {
     // dense output's guess of each zero is far closer.
     let fine = freewheel_zeros(0.5e-6);
     let coarse = freewheel_zeros(SolverParams::default().max_step_s);
-    assert!(fine.len() >= 10, "the current dies out in the off-times: {fine:?}");
+    assert!(
+        fine.len() >= 10,
+        "the current dies out in the off-times: {fine:?}"
+    );
     assert_eq!(fine.len(), coarse.len(), "{fine:?} vs {coarse:?}");
     // Both searches stop within 1e-9 A of zero, and these currents fall at kA/s or
     // faster: the two must agree to a picosecond.

@@ -1078,8 +1078,7 @@ impl Plant for BldcPlant {
     }
 
     fn advance(&mut self, until: Ticks, watch: Watch) -> PlantStop {
-        self.cmp
-            .declare(self.tick.0, watch.channels, watch.reads);
+        self.cmp.declare(self.tick.0, watch.channels, watch.reads);
         // Unwatched comparators are walked only as far as they are read: at the instant
         // returned, and from now on for the channels watched now.
         self.cmp.watch(watch.channels);
