@@ -7,6 +7,12 @@ if ! command -v cargo >/dev/null 2>&1; then
     echo "error: cargo not found; install the Rust toolchain (https://rustup.rs) and retry" >&2
     exit 1
 fi
+# Formatting first: it takes a second, and an unformatted change fails here, not in review.
+if ! cargo fmt --version >/dev/null 2>&1; then
+    echo "error: rustfmt not found; install it (rustup component add rustfmt) and retry" >&2
+    exit 1
+fi
+cargo fmt --all --check
 
 # FMU tests need a Python venv with fmpy (pinned), and the `fmi` crate (a dev-dependency of
 # fmu/) needs libclang for bindgen: the system's if installed, else the PyPI wheel `libclang`
