@@ -15,8 +15,10 @@ fi
 cargo fmt --all --check
 
 # FMU tests need a Python venv with fmpy (pinned), and the `fmi` crate (a dev-dependency of
-# fmu/) needs libclang for bindgen: the system's if installed, else the PyPI wheel `libclang`
-# in the venv with gcc's builtin headers. Both are installed here when missing.
+# fmu/) needs libclang for bindgen: the PyPI wheel `libclang` (pinned) in the venv, with gcc's
+# builtin headers, unless LIBCLANG_PATH names another. Both are installed here when missing.
+# The wheel rather than a system libclang: the same one on every machine, where Debian's
+# packages may ship libclang without its headers, or only libclang-cpp.
 venv=target/venv
 if ! "$venv/bin/python" -c "import fmpy, clang" >/dev/null 2>&1; then
     if ! command -v python3 >/dev/null 2>&1; then
@@ -26,7 +28,7 @@ if ! "$venv/bin/python" -c "import fmpy, clang" >/dev/null 2>&1; then
     python3 -m venv "$venv" || { echo "error: python3 -m venv failed; apt-get install python3-venv" >&2; exit 1; }
     "$venv/bin/pip" install --quiet fmpy==0.3.32 libclang==18.1.1
 fi
-if [ -z "${LIBCLANG_PATH:-}" ] && ! ls /usr/lib/llvm-*/lib/libclang.so* /usr/lib/*/libclang-*.so* >/dev/null 2>&1; then
+if [ -z "${LIBCLANG_PATH:-}" ]; then
     LIBCLANG_PATH=$("$venv/bin/python" -c "import clang, os; print(os.path.join(os.path.dirname(clang.__file__), 'native'))")
     export LIBCLANG_PATH
     export BINDGEN_EXTRA_CLANG_ARGS="-I$(gcc -print-file-name=include)"
