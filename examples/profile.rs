@@ -2,9 +2,8 @@
 //! prints the real-time factor, the plant's work counters and why the engine stopped.
 //!
 //! `cargo run --release --example profile [speed_rpm]`. Wall time is noisy; instruction
-//! counts are not: `valgrind --tool=callgrind --collect-atstart=no
-//! --toggle-collect='profile::steady_second' target/release/examples/profile` counts the
-//! timed second alone.
+//! counts are not: `scripts/instructions.sh [speed_rpm]` counts the timed second alone with
+//! callgrind (it collects inside `steady_second`, by that name).
 
 use bldc_drive::DriveConfig;
 use bldc_drive::drive::{DriveEngine, build};
