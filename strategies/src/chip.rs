@@ -11,6 +11,7 @@ use crate::params::{ControlParams, GuardKind, StrategyName, StrategyParams};
 use crate::pi::{Pi, PiGains};
 use crate::shifter::{COUNTER_MAX, PhaseShifter, ShiftEvent};
 use crate::speed::SpeedMeter;
+use crate::supervisor::{Supervisor, Update};
 use crate::table::{OFF_FLAG, Table, flag_of};
 use drive_core::bridge::{ALL_FLOAT, LegState};
 use drive_core::error::ParamError;
@@ -107,6 +108,10 @@ pub struct Chip {
     speed: SpeedMeter,
     speed_pi: Pi,
     current_pi: Pi,
+    supervisor: Supervisor,
+    /// FG measurements the supervisor has seen.
+    measurements_seen: u64,
+    pole_pairs: u32,
     amps_per_code: f64,
     top: u32,
     start: bool,
@@ -196,6 +201,9 @@ impl Chip {
             ),
             speed_pi,
             current_pi,
+            supervisor: Supervisor::new(&control),
+            measurements_seen: 0,
+            pole_pairs: pole_pairs.max(1),
             amps_per_code,
             top,
             start: true,
@@ -266,6 +274,11 @@ impl Chip {
         self.table
     }
 
+    /// Times the plausibility supervisor restarted the drive (counted in the restarts too).
+    pub fn supervisor_trips(&self) -> u32 {
+        self.supervisor.trips()
+    }
+
     /// The guard in use.
     pub fn guard_kind(&self) -> GuardKind {
         self.guard.kind
@@ -315,6 +328,7 @@ impl Chip {
         self.cv = (self.control.startup_duty * f64::from(self.top)).round() as u32;
         self.linear = false;
         self.speed.reset();
+        self.supervisor.reset();
         self.speed_pi.set_integrator(0.0);
         self.i_ref = 0.0;
         self.guard.filter.reset();
@@ -384,9 +398,13 @@ impl Chip {
             self.fg_since = now;
         }
         if now >= self.next_pi {
-            self.pi_update(sensed.current_code);
+            let implausible = self.pi_update(sensed.current_code);
             while self.next_pi <= now {
                 self.next_pi += clocks::PI_UPDATE;
+            }
+            if implausible {
+                self.restart(now);
+                return;
             }
         }
         if now >= self.step_miss_deadline() {
@@ -399,7 +417,31 @@ impl Chip {
     /// Until the first FG speed measurement (10 FG periods after hand-over) there is no
     /// speed to control; the current command is held at `start_current_a`, and the speed PI
     /// starts from zero when the first measurement arrives.
-    fn pi_update(&mut self, current_code: u16) {
+    ///
+    /// Returns whether the supervisor found this update's current sample implausible
+    /// enough to restart; it judges the sample against the duty that produced it.
+    fn pi_update(&mut self, current_code: u16) -> bool {
+        let i = f64::from(current_code) * self.amps_per_code;
+        // The believed speed from the last 60° interval: it exists two crossings after the
+        // hand-over, long before the FG meter's first reading.
+        let (t60, measured) = self.shifter.t60();
+        let new_reading = self.speed.measurements() != self.measurements_seen;
+        self.measurements_seen = self.speed.measurements();
+        let tripped = measured && {
+            let sector_s = t60.max(1) as f64 * clocks::COMMUTATION.seconds();
+            let window = self
+                .guard
+                .linear_window_deg(self.speed.rpm())
+                .map_or(0.0, f64::from);
+            let d = f64::from(self.cv) / f64::from(self.top);
+            self.supervisor.update(&Update {
+                shifter_rpm: 60.0 / (6.0 * sector_s * f64::from(self.pole_pairs)),
+                meter_rpm: new_reading.then(|| f64::from(self.speed.rpm())),
+                duty_eff: d + (1.0 - d) * window / 60.0,
+                current_a: i,
+                torque_asked: self.i_ref > 0.0,
+            })
+        };
         let i_ref = if self.speed.measurements() == 0 {
             self.control.start_current_a
         } else {
@@ -407,9 +449,9 @@ impl Chip {
             self.speed_pi.update(speed_error)
         };
         self.i_ref = i_ref;
-        let i = f64::from(current_code) * self.amps_per_code;
         let u = self.current_pi.update(i_ref - i);
         self.cv = (u.round() as u32).min(self.top);
+        tripped
     }
 
     fn wake_at(&self, now: Ticks) -> Ticks {

@@ -2,8 +2,8 @@
 //!
 //! The chip ([`Chip`]) is composed of small parts, each testable against SPEC on its own:
 //! the commutation [`table`]s, the phase [`shifter`], the zero-crossing [`guard`]s and the
-//! digital [`filter`], the FG [`speed`] meter, the [`pi`] controllers, and the start-up and
-//! supervision logic in [`chip`]. [`params`] holds the `[control]` and `[strategy]` config.
+//! digital [`filter`], the FG [`speed`] meter, the [`pi`] controllers, the plausibility
+//! [`supervisor`], and the start-up and supervision logic in [`chip`]. [`params`] holds the `[control]` and `[strategy]` config.
 #![deny(unsafe_code)] // allowed only in `plugin`, the C boundary
 
 pub mod chip;
@@ -16,6 +16,7 @@ pub mod plugin;
 pub mod shifter;
 pub mod speed;
 pub mod strategy;
+pub mod supervisor;
 pub mod table;
 
 pub use chip::{Chip, ChipStatus, Mode};

@@ -73,6 +73,28 @@ pub struct ControlParams {
     pub max_restarts: u32,
     /// FG periods per speed measurement k. Default 10. Rule: 1..=100.
     pub speed_periods: u32,
+    /// Plausibility supervisor (not in the published chip; see `supervisor.rs`): restarts
+    /// when the measured current could not flow against the back-EMF of the speed the chip
+    /// believes. Default true; false gives the chip as published.
+    pub supervisor: bool,
+    /// The motor's no-load speed at full voltage ω₀ = V_DD/k_e, as the supervisor assumes it
+    /// \[rpm\] (a datasheet figure; k_e the mean line-to-line back-EMF per rpm over a 60°
+    /// conduction, (3/π)·√3·λr·(P/2)·2π/60). Default 15150: the built-in motor at 12 V
+    /// (k_e = 0.792 mV/rpm). Rule: 100..=1e6.
+    pub supervisor_no_load_rpm: f64,
+    /// Fraction f of the believed back-EMF the applied voltage must reach for a measured
+    /// current to be plausible \[1\]. Default 0.5 (room for drops and a wrong ω₀).
+    /// Rule: 0 < x ≤ 1.
+    pub supervisor_emf_fraction: f64,
+    /// Smallest measured current that proves conduction \[A\]. Default 0.01 (82 ADC codes
+    /// with the default sensing, 4 % of the current limit). Rule: 0 < x ≤ 10.
+    pub supervisor_current_a: f64,
+    /// PI updates the supervisor looks back over; it trips when half of them were
+    /// implausible. Default 8 (42 ms). Rule: 2..=32.
+    pub supervisor_updates: u32,
+    /// Rise of the FG speed measurement above the lowest of a coast (no current asked, none
+    /// measured) that trips the supervisor \[fraction\]. Default 0.25. Rule: 0.01..=10.
+    pub supervisor_coast_rise: f64,
     /// Width of the speed counter (2.56 µs counts) \[bits\]. Default 15 (SPEC §7 "counters 15
     /// bit"): it saturates at 32767 counts, so with k = 10 and 12 poles the lowest speed it
     /// can read is 39 062 500 / 32767 ≈ 1192 rpm. Rule: 8..=32.
@@ -96,6 +118,12 @@ impl Default for ControlParams {
             handover_t60_s: 0.015,
             step_miss_s: 0.05,
             max_restarts: 5,
+            supervisor: true,
+            supervisor_no_load_rpm: 15150.0,
+            supervisor_emf_fraction: 0.5,
+            supervisor_current_a: 0.01,
+            supervisor_updates: 8,
+            supervisor_coast_rise: 0.25,
             speed_periods: 10,
             speed_counter_bits: 15,
         }
@@ -179,6 +207,41 @@ impl ControlParams {
                 "must be <= 1000",
             ));
         }
+        check_range(
+            "control.supervisor_no_load_rpm",
+            self.supervisor_no_load_rpm,
+            100.0,
+            1e6,
+            "must be in 100..=1e6 rpm",
+        )?;
+        if !(self.supervisor_emf_fraction > 0.0 && self.supervisor_emf_fraction <= 1.0) {
+            return Err(ParamError::new(
+                "control.supervisor_emf_fraction",
+                self.supervisor_emf_fraction,
+                "must be in (0, 1]",
+            ));
+        }
+        if !(self.supervisor_current_a > 0.0 && self.supervisor_current_a <= 10.0) {
+            return Err(ParamError::new(
+                "control.supervisor_current_a",
+                self.supervisor_current_a,
+                "must be in (0, 10] A",
+            ));
+        }
+        check_range(
+            "control.supervisor_updates",
+            f64::from(self.supervisor_updates),
+            2.0,
+            32.0,
+            "must be in 2..=32 PI updates",
+        )?;
+        check_range(
+            "control.supervisor_coast_rise",
+            self.supervisor_coast_rise,
+            0.01,
+            10.0,
+            "must be in 0.01..=10",
+        )?;
         check_range(
             "control.speed_periods",
             f64::from(self.speed_periods),

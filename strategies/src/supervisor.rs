@@ -1,0 +1,239 @@
+//! Plausibility supervisor: catches the lost synchronism the published step-miss detector
+//! cannot see. Not part of the published chip; `control.supervisor = false` removes it.
+//!
+//! **Why step-miss is not enough.** With a stopped or crawling rotor the floating phase
+//! carries no back-EMF, and its comparator follows what the bridge does to it: the
+//! freewheel clamp after each commutation and the transients at PWM edges. The phase
+//! shifter takes those for crossings and commutates on; FG keeps toggling, so FG is never
+//! stuck for 50 ms, and the speed meter reports the rate of the false crossings (several
+//! krpm) while the rotor stands still.
+//!
+//! **What gives it away.** A rotor at speed ω has a line-to-line back-EMF
+//! E(ω) = V_DD·ω/ω₀, ω₀ the motor's no-load speed at full voltage. The bridge applies an
+//! average d_eff·V_DD across the conducting pair (d_eff = d + (1 − d)·θZC/60°, counting a
+//! linear region's full-voltage window), and motoring current can only flow while
+//! d_eff·V_DD > E. So a measured current of at least `i_min` while
+//! d_eff < f·ω_est/ω₀ says the rotor turns much slower than the chip believes (f < 1
+//! leaves room for the resistive and switch drops, which only make the true requirement
+//! larger, and for a wrong ω₀). Coasting after a step down does not trip it: there the
+//! current is zero. ω_est is the phase shifter's, 60°/t_60: it exists two crossings after
+//! the hand-over, where the FG meter needs ten electrical turns.
+//!
+//! The ADC takes one sample per PI update of a chopped current, so a single update can read
+//! the on-time or the off-time; the supervisor trips when at least half of the last
+//! `updates` updates were implausible, not on one sample.
+//!
+//! **A coast does not speed up.** At a low duty the false crossings draw too little current
+//! to measure, and the speed loop, believing the rotor too fast, asks for none. The chip
+//! then believes it coasts. A real coast only slows down (friction and load brake it, the
+//! bridge adds no torque), so once the speed loop asks for no current and two successive
+//! current samples read below `i_min`, an FG speed measurement more than `coast_rise`
+//! above the lowest of the coast so far trips the supervisor. Ten FG periods average
+//! the measurement, so a genuine coast stays far below that; false crossings jump by tens
+//! of percent between measurements. An overhauling load that drives the rotor faster with
+//! no current asked would trip it too: switch the supervisor off for such studies.
+
+use crate::params::ControlParams;
+
+/// The supervisor's state: which of the last updates were implausible.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Supervisor {
+    enabled: bool,
+    no_load_rpm: f64,
+    fraction: f64,
+    current_a: f64,
+    updates: u32,
+    coast_rise: f64,
+    history: u32,
+    quiet: u32,
+    coast_min: Option<f64>,
+    trips: u32,
+}
+
+/// One PI update as the supervisor sees it.
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub struct Update {
+    /// Believed speed from the last 60° interval \[rpm\].
+    pub shifter_rpm: f64,
+    /// An FG speed measurement completed since the last update \[rpm\].
+    pub meter_rpm: Option<f64>,
+    /// Effective duty in force while the current was sampled (0..1).
+    pub duty_eff: f64,
+    /// Measured current \[A\].
+    pub current_a: f64,
+    /// Whether the speed loop asks for current.
+    pub torque_asked: bool,
+}
+
+impl Supervisor {
+    /// The supervisor configured by `control` (validated: `updates` ≤ 32).
+    pub fn new(control: &ControlParams) -> Self {
+        Supervisor {
+            enabled: control.supervisor,
+            no_load_rpm: control.supervisor_no_load_rpm,
+            fraction: control.supervisor_emf_fraction,
+            current_a: control.supervisor_current_a,
+            updates: control.supervisor_updates.clamp(1, 32),
+            coast_rise: control.supervisor_coast_rise,
+            history: 0,
+            quiet: 0,
+            coast_min: None,
+            trips: 0,
+        }
+    }
+
+    /// Forgets the history (after a restart or hand-over).
+    pub fn reset(&mut self) {
+        self.history = 0;
+        self.quiet = 0;
+        self.coast_min = None;
+    }
+
+    /// Whether one PI update is implausible: `current_a` measured while an effective duty
+    /// `duty_eff` (0..1) was applied and the meter read `speed_rpm`.
+    pub fn implausible(&self, speed_rpm: f64, duty_eff: f64, current_a: f64) -> bool {
+        current_a >= self.current_a && duty_eff < self.fraction * speed_rpm / self.no_load_rpm
+    }
+
+    /// Records one PI update; true when the supervisor trips (it then starts afresh).
+    pub fn update(&mut self, u: &Update) -> bool {
+        if !self.enabled {
+            return false;
+        }
+        let mask = if self.updates >= 32 {
+            u32::MAX
+        } else {
+            (1u32 << self.updates) - 1
+        };
+        let bad = self.implausible(u.shifter_rpm, u.duty_eff, u.current_a);
+        self.history = ((self.history << 1) | u32::from(bad)) & mask;
+        let mut trip = 2 * self.history.count_ones() >= self.updates;
+        if u.torque_asked || u.current_a >= self.current_a {
+            self.quiet = 0;
+            self.coast_min = None;
+        } else {
+            self.quiet += 1;
+        }
+        if self.quiet >= 2
+            && let Some(rpm) = u.meter_rpm
+        {
+            let min = self.coast_min.map_or(rpm, |m| m.min(rpm));
+            trip |= rpm > (1.0 + self.coast_rise) * min;
+            self.coast_min = Some(min);
+        }
+        if trip {
+            self.reset();
+            self.trips += 1;
+        }
+        trip
+    }
+
+    /// Times it tripped.
+    pub fn trips(&self) -> u32 {
+        self.trips
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn sup() -> Supervisor {
+        Supervisor::new(&ControlParams {
+            supervisor_no_load_rpm: 15000.0,
+            supervisor_emf_fraction: 0.5,
+            supervisor_current_a: 0.01,
+            supervisor_updates: 8,
+            supervisor_coast_rise: 0.25,
+            ..ControlParams::default()
+        })
+    }
+
+    #[test]
+    fn current_below_the_back_emf_of_the_believed_speed_is_implausible() {
+        let s = sup();
+        // Believed 6000 rpm: E = 0.4·V_DD, half of it 0.2. Duty 0.15 with 0.05 A: impossible.
+        assert!(s.implausible(6000.0, 0.15, 0.05));
+        // Duty 0.25 covers half the back-EMF: plausible (drops and ω₀ may be off).
+        assert!(!s.implausible(6000.0, 0.25, 0.05));
+        // No current (coasting after a step down, E > d·V_DD): plausible.
+        assert!(!s.implausible(6000.0, 0.0, 0.0));
+    }
+
+    fn at(rpm: f64, duty_eff: f64, current_a: f64) -> Update {
+        Update {
+            shifter_rpm: rpm,
+            meter_rpm: None,
+            duty_eff,
+            current_a,
+            torque_asked: true,
+        }
+    }
+
+    #[test]
+    fn trips_when_half_of_the_last_updates_are_implausible() {
+        let mut s = sup();
+        // Alternating samples (on-time, off-time): the 4th bad one of 8 trips.
+        let mut trips = Vec::new();
+        for k in 0..8 {
+            let i = if k % 2 == 0 { 0.05 } else { 0.0 };
+            trips.push(s.update(&at(6000.0, 0.1, i)));
+        }
+        assert_eq!(
+            trips,
+            [false, false, false, false, false, false, true, false]
+        );
+        assert_eq!(s.trips(), 1);
+        // Isolated bad samples among good ones never trip.
+        let mut s = sup();
+        for k in 0..100 {
+            let duty = if k % 4 == 0 { 0.1 } else { 0.5 };
+            assert!(!s.update(&at(6000.0, duty, 0.05)));
+        }
+    }
+
+    fn coast(meter_rpm: Option<f64>, current_a: f64) -> Update {
+        Update {
+            shifter_rpm: meter_rpm.unwrap_or(3000.0),
+            meter_rpm,
+            duty_eff: 0.0,
+            current_a,
+            torque_asked: false,
+        }
+    }
+
+    #[test]
+    fn a_coast_that_speeds_up_trips() {
+        let mut s = sup();
+        // A genuine coast: measurements fall (with 2 % jitter), no current.
+        for k in 0..50 {
+            let rpm = 8000.0 - 100.0 * k as f64 + if k % 2 == 0 { 80.0 } else { -80.0 };
+            assert!(!s.update(&coast(Some(rpm), 0.0)), "k = {k}");
+        }
+        // Then 30 % above the lowest (3020 rpm): impossible without torque.
+        assert!(s.update(&coast(Some(3020.0 * 1.3), 0.0)));
+        // Current flowing or torque asked: not a coast, nothing compared.
+        let mut s = sup();
+        assert!(!s.update(&coast(Some(3000.0), 0.0)));
+        assert!(!s.update(&coast(Some(3000.0), 0.0)));
+        assert!(!s.update(&coast(Some(1000.0), 0.0)));
+        assert!(!s.update(&coast(None, 0.02)));
+        assert!(!s.update(&coast(Some(5000.0), 0.0)), "coast restarted");
+        assert!(
+            !s.update(&coast(Some(5000.0), 0.0)),
+            "its first measurement"
+        );
+        assert!(s.update(&coast(Some(6300.0), 0.0)));
+    }
+    #[test]
+    fn disabled_never_trips() {
+        let mut s = Supervisor::new(&ControlParams {
+            supervisor: false,
+            ..ControlParams::default()
+        });
+        for k in 0..100 {
+            assert!(!s.update(&at(10_000.0, 0.0, 1.0)));
+            assert!(!s.update(&coast(Some(1000.0 * f64::from(k)), 0.0)));
+        }
+    }
+}
