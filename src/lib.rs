@@ -10,6 +10,7 @@ pub mod config;
 pub mod drive;
 pub mod metrics;
 pub mod scenario;
+pub mod verdict;
 
 pub use config::{ConfigError, DriveConfig};
 pub use drive_core;

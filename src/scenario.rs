@@ -4,6 +4,7 @@
 use crate::config::DriveConfig;
 use crate::drive::{BuildError, DriveEngine, build, build_plugin};
 use crate::metrics::{AngleErrors, TimeStats};
+use crate::verdict::{Ending, Judgement, VerdictRule, Witness};
 use drive_core::error::ParamError;
 use drive_core::{EngineError, Plant, StopReason, Ticks};
 use plants::BldcPlant;
@@ -30,6 +31,8 @@ pub struct Scenario {
     pub speed_record_s: f64,
     /// A plugin strategy to use instead of the built-in one named in the config.
     pub plugin: Option<PluginLibrary>,
+    /// How the run is judged from the true rotor.
+    pub verdict_rule: VerdictRule,
 }
 
 /// Which trace rows to produce.
@@ -58,6 +61,7 @@ impl Scenario {
             trace: None,
             speed_record_s: 1e-3,
             plugin: None,
+            verdict_rule: VerdictRule::default(),
         }
     }
 
@@ -243,10 +247,19 @@ pub struct Summary {
     /// Phase-current RMS over the window, √(mean(i_u² + i_v² + i_w²)/3) \[A\], exact: from
     /// the copper loss R·Σi² integrated by the plant.
     pub current_rms_a: f64,
-    /// Restarts (step-miss errors) during the whole run.
+    /// What the run came to, judged from the true rotor (see [`crate::verdict`]).
+    pub verdict: crate::verdict::Verdict,
+    /// Why, in one line.
+    pub verdict_reason: String,
+    /// When the rotor first followed the commutation (see [`crate::verdict`]) \[s\].
+    pub started_at_s: Option<f64>,
+    /// Restarts (step-miss or supervisor errors) during the whole run.
     pub restarts: u32,
-    /// Whether the chip ended in closed-loop running.
-    pub running: bool,
+    /// Whether the controller *believes* it ended in closed-loop running (its mode; the
+    /// verdict says whether the rotor agrees).
+    pub chip_running: bool,
+    /// The controller's own speed measurement at the end \[rpm\].
+    pub chip_speed_rpm: f64,
     /// Commutations in the window.
     pub commutations: u64,
     /// Signed mean of the commutation-angle error in the window [°] (positive: late).
@@ -315,6 +328,7 @@ pub fn run(sc: &Scenario, mut on_row: impl FnMut(&TraceRow)) -> Result<Outcome, 
         (p.time_s(), p.energy().copper, ti, ti2)
     };
     let mut angles = AngleErrors::default();
+    let mut witness = Witness::new(sc.verdict_rule, table.states_per_turn());
     let mut record = Vec::with_capacity((sc.duration_s / sc.speed_record_s) as usize + 2);
     let mut duty = Vec::with_capacity(record.capacity());
     let top = f64::from(eng.carrier().top);
@@ -349,9 +363,23 @@ pub fn run(sc: &Scenario, mut on_row: impl FnMut(&TraceRow)) -> Result<Outcome, 
             let t = e.plant.time_s();
             let s = e.controller.status();
             let (recorded, steady) = (t >= next_record, t >= steady_from);
-            // Observing inside an integrated step costs a step of its own: only when recorded.
-            if recorded || steady {
+            let commutated = s.state != last_state && s.state != 0 && last_state != 0;
+            // Observing inside an integrated step costs a step of its own: only when needed.
+            if recorded || steady || commutated {
                 let o = e.plant.observe();
+                let finite = o.speed_rpm.is_finite()
+                    && o.i.u.is_finite()
+                    && o.i.v.is_finite()
+                    && o.i.w.is_finite();
+                witness.instant(t, s.mode == Mode::Running, s.restarts, finite, steady);
+                if commutated {
+                    let (theta, boundary) =
+                        (o.theta_e.to_degrees(), table.state_start_deg(s.state));
+                    witness.commutation(t, theta, boundary, steady);
+                    if steady {
+                        angles.push(theta, boundary);
+                    }
+                }
                 if recorded {
                     record.push((t, o.speed_rpm));
                     duty.push((t, f64::from(s.duty) / top));
@@ -360,9 +388,6 @@ pub fn run(sc: &Scenario, mut on_row: impl FnMut(&TraceRow)) -> Result<Outcome, 
                 if steady {
                     speed.push(t, o.speed_rpm);
                     window.get_or_insert_with(|| integrals(&e.plant));
-                    if s.state != last_state && s.state != 0 && last_state != 0 {
-                        angles.push(o.theta_e.to_degrees(), table.state_start_deg(s.state));
-                    }
                 }
             }
             last_state = s.state;
@@ -406,6 +431,15 @@ pub fn run(sc: &Scenario, mut on_row: impl FnMut(&TraceRow)) -> Result<Outcome, 
     };
     let s = eng.controller.status();
     let sim_s = eng.now().seconds();
+    let Judgement { verdict, reason } = witness.judge(&Ending {
+        command_rpm: eng.controller.speed_ref_rpm(),
+        speed_mean_rpm: speed.mean(),
+        window_s: speed.duration(),
+        pole_pairs: sc.config.motor.poles / 2,
+        chip_speed_rpm: f64::from(s.speed_est_rpm),
+        restarts: (s.restarts, sc.config.control.max_restarts),
+        gave_up: s.mode == Mode::GaveUp,
+    });
     Ok(Outcome {
         summary: Summary {
             strategy: eng.controller.name().to_string(),
@@ -416,8 +450,12 @@ pub fn run(sc: &Scenario, mut on_row: impl FnMut(&TraceRow)) -> Result<Outcome, 
             // Rounding may leave the variance a hair below zero when the torque is steady.
             torque_ripple_nm: (torque_ms - torque_mean * torque_mean).max(0.0).sqrt(),
             current_rms_a: current_ms.max(0.0).sqrt(),
+            verdict,
+            verdict_reason: reason,
+            started_at_s: witness.started_at_s(),
             restarts: s.restarts,
-            running: s.mode == Mode::Running,
+            chip_running: s.mode == Mode::Running,
+            chip_speed_rpm: f64::from(s.speed_est_rpm),
             commutations: angles.count,
             commutation_error_deg_mean: angles.mean_deg,
             commutation_error_deg_max: angles.max_abs_deg,

@@ -20,7 +20,10 @@ fn the_summarys_torque_and_current_do_not_depend_on_where_the_engine_stops() {
         to_s: 3.0,
     });
     let sampled = run(&sc, |_| {}).expect("runs").summary;
-    assert!(plain.running && plain.restarts == 0, "{plain:?}");
+    assert!(
+        plain.verdict.is_running() && plain.restarts == 0,
+        "{plain:?}"
+    );
     let pairs = [
         ("torque mean", plain.torque_mean_nm, sampled.torque_mean_nm),
         (

@@ -91,6 +91,10 @@ pub struct Plan {
     pub load: (f64, f64, f64, f64),
     /// Whether to search each strategy's speed range.
     pub ranges: bool,
+    /// The chip's speed meter in every run but the range searches.
+    pub meter: range::Meter,
+    /// The meters each strategy's range is searched with.
+    pub range_meters: Vec<range::Meter>,
 }
 
 impl Default for Plan {
@@ -109,6 +113,8 @@ impl Default for Plan {
             },
             load: (3000.0, 4e-4, 2.5, 4.0),
             ranges: true,
+            meter: range::Meter::WIDE,
+            range_meters: vec![range::Meter::WIDE, range::Meter::AS_PUBLISHED],
         }
     }
 }
@@ -212,7 +218,7 @@ pub struct Comparison {
 
 enum Job {
     Grid(usize, f64),
-    Range(usize),
+    Range(usize, range::Meter),
     Step(usize, bool),
     Load(usize),
 }
@@ -237,7 +243,9 @@ pub fn compare(
     let mut jobs = Vec::new();
     for v in 0..variants.len() {
         if plan.ranges {
-            jobs.push(Job::Range(v)); // longest first, so the pool ends together
+            for &m in &plan.range_meters {
+                jobs.push(Job::Range(v, m)); // longest first, so the pool ends together
+            }
         }
         for &rpm in &plan.grid_rpm {
             jobs.push(Job::Grid(v, rpm));
@@ -247,7 +255,7 @@ pub fn compare(
         jobs.push(Job::Load(v));
     }
     let config_of = |v: usize| {
-        let mut c = base.clone();
+        let mut c = plan.meter.apply(base);
         c.strategy = variants[v].strategy.clone();
         c
     };
@@ -280,10 +288,11 @@ pub fn compare(
                 });
                 Done::Grid(point, trace)
             }
-            Job::Range(v) => Done::Range(range::search(
-                &config_of(v),
+            Job::Range(v, m) => Done::Range(range::search(
+                &m.apply(&config_of(v)),
                 variants[v].plugin.as_ref(),
                 &label(v),
+                m.label,
             )?),
             Job::Step(v, aw) => {
                 let p = plan.step;

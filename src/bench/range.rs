@@ -1,48 +1,115 @@
-//! Lowest and highest controllable speed, by bisection.
+//! Lowest and highest controllable speed, by bisection, each judged by the run's verdict
+//! ([`crate::verdict`]: from the true rotor), with what limits it.
 //!
-//! Criterion: a speed is controllable when, started from standstill with that command,
-//! the drive is running closed loop at the end, never restarted, and its time-weighted
-//! mean speed over the steady-state window is within 2 % of the command.
+//! - **Top speed**: started from standstill with the command; controllable when the verdict
+//!   is `running` with no restart.
+//! - **Floor**: what a drive holds after being turned down from a running speed, as a user
+//!   would: the drive starts at the search's seed speed, is commanded the lower speed at
+//!   [`TURN_DOWN_S`], and is judged over a window of at least 20 electrical turns at that
+//!   speed (1–5 s) after [`SETTLE_S`]; searched down to 0 rpm. Start-up is measured
+//!   separately.
+//!
+//! The limit of each bound is the verdict and reason of the failed run just beyond it
+//! (lost synchronism of the guard, a stall, off-speed from the meter or the PWM floor, …).
 
 use crate::config::DriveConfig;
 use crate::scenario::{RunError, Scenario, Summary, run};
+use crate::verdict::Verdict;
 use serde::Serialize;
 use strategies::PluginLibrary;
 
 /// The criterion, stated in every range result.
-pub const CRITERION: &str = "started from standstill with the command, after 3 s of simulated time: running closed loop, no restart, mean true speed over the last 1 s within 2 % of the command";
+pub const CRITERION: &str = "verdict `running` (commutation in synchronism with the true rotor, true mean speed within 2 % of the command over the steady-state window) and no restart; top speed started from standstill (3 s, window the last 1 s); floor turned down from the seed speed at 1.5 s, settled for 2 s, window 20 electrical turns (1–5 s)";
 
-/// Lowest speed searched \[rpm\].
-pub const SEARCH_MIN_RPM: f64 = 100.0;
 /// Highest speed searched \[rpm\] (the 14-bit speed command tops out at 16383).
 pub const SEARCH_MAX_RPM: f64 = 16000.0;
+/// When the floor's runs are turned down from the seed speed \[s\].
+pub const TURN_DOWN_S: f64 = 1.5;
+/// Time the turned-down drive gets to settle before its window \[s\].
+pub const SETTLE_S: f64 = 2.0;
 /// Relative resolution of the bisection.
 const RESOLUTION: f64 = 0.03;
+/// Absolute resolution of the floor's bisection \[rpm\].
+const FLOOR_RESOLUTION_RPM: f64 = 5.0;
 /// Where the search starts; tried first, then a ladder if it fails.
 const SEEDS: [f64; 5] = [3000.0, 2000.0, 4500.0, 1000.0, 6000.0];
 
-/// The range of one strategy.
+/// The chip's FG speed meter (SPEC-style counter over k FG periods).
+#[derive(Copy, Clone, Debug, PartialEq, Serialize)]
+pub struct Meter {
+    /// How reports name it.
+    pub label: &'static str,
+    /// FG periods per measurement.
+    pub periods: u32,
+    /// Counter width \[bits\].
+    pub bits: u32,
+}
+
+impl Meter {
+    /// The published chip's: 15 bits over 10 FG periods; it cannot read below 1192 rpm
+    /// with 12 poles (39 062 500 / 32 767).
+    pub const AS_PUBLISHED: Meter = Meter {
+        label: "15-bit (as published)",
+        periods: 10,
+        bits: 15,
+    };
+    /// The same meter with a 24-bit counter, which reads down to 2.3 rpm: a meter that does
+    /// not bind, so that the floors show the guards.
+    pub const WIDE: Meter = Meter {
+        label: "24-bit (does not bind)",
+        periods: 10,
+        bits: 24,
+    };
+
+    /// `config` with this meter.
+    pub fn apply(&self, config: &DriveConfig) -> DriveConfig {
+        let mut c = config.clone();
+        c.control.speed_periods = self.periods;
+        c.control.speed_counter_bits = self.bits;
+        c
+    }
+}
+
+/// What stops a bound from going further: the failed run just beyond it.
+#[derive(Clone, Debug, Serialize)]
+pub struct Limit {
+    /// The command that failed \[rpm\].
+    pub rpm: f64,
+    /// Its verdict.
+    pub verdict: Verdict,
+    /// Its reason.
+    pub reason: String,
+}
+
+/// The range of one strategy with one meter.
 #[derive(Clone, Debug, Serialize)]
 pub struct Range {
     /// Strategy label.
     pub strategy: String,
-    /// Lowest controllable speed found \[rpm\] (None: none controllable).
+    /// Speed meter of the chip.
+    pub meter: String,
+    /// Lowest speed held after being turned down \[rpm\] (None: none controllable).
     pub min_rpm: Option<f64>,
-    /// Highest controllable speed found \[rpm\].
+    /// What stops it going lower.
+    pub min_limit: Option<Limit>,
+    /// Highest controllable speed from standstill \[rpm\].
     pub max_rpm: Option<f64>,
+    /// What stops it going higher (None when the search's ceiling passed).
+    pub max_limit: Option<Limit>,
     /// The criterion.
     pub criterion: &'static str,
     /// Resolution of the bisection: each reported bound was controllable and a speed
-    /// this many percent further out was not (or is the end of the search) [%].
+    /// this many percent further out was not (or is the end of the search) [%]; the floor
+    /// also stops at 5 rpm.
     pub resolution_pct: f64,
-    /// Every speed tried and whether it passed.
+    /// Every speed tried and whether it passed (floor runs turned down from the seed).
     pub tried: Vec<(f64, bool)>,
-    /// Speeds tried between the bounds that failed: bisection assumes the controllable
-    /// speeds form one interval, and these show where that does not hold.
+    /// Top-speed runs between the seed and the top that failed: bisection assumes the
+    /// controllable speeds form one interval, and these show where that does not hold.
     pub gaps_rpm: Vec<f64>,
 }
 
-/// Whether `rpm` is controllable, with the run's summary.
+/// Whether `rpm` is controllable started from standstill, with the run's summary.
 pub fn controllable(
     config: &DriveConfig,
     plugin: Option<&PluginLibrary>,
@@ -50,74 +117,119 @@ pub fn controllable(
 ) -> Result<(bool, Summary), RunError> {
     let mut sc = Scenario::hold(config.clone(), rpm, 3.0);
     sc.plugin = plugin.cloned();
-    let s = run(&sc, |_| {})?.summary;
-    let ok = s.running && s.restarts == 0 && (s.speed_mean_rpm - rpm).abs() <= 0.02 * rpm;
-    Ok((ok, s))
+    judge(&sc)
 }
 
-/// Searches the range of `config`'s strategy (or `plugin`'s), labelled `label`.
+/// Whether the drive, running at `seed_rpm`, holds `rpm` after being turned down to it.
+pub fn held_after_turn_down(
+    config: &DriveConfig,
+    plugin: Option<&PluginLibrary>,
+    seed_rpm: f64,
+    rpm: f64,
+) -> Result<(bool, Summary), RunError> {
+    let pole_pairs = f64::from(config.motor.poles / 2);
+    let window = (20.0 * 60.0 / (rpm * pole_pairs)).clamp(1.0, 5.0);
+    let duration = TURN_DOWN_S + SETTLE_S + window;
+    let mut sc = Scenario::hold(config.clone(), seed_rpm, duration);
+    sc.speed_steps.push((TURN_DOWN_S, rpm));
+    sc.steady_from_s = duration - window;
+    sc.plugin = plugin.cloned();
+    judge(&sc)
+}
+
+fn judge(sc: &Scenario) -> Result<(bool, Summary), RunError> {
+    let s = run(sc, |_| {})?.summary;
+    Ok((s.verdict.is_running() && s.restarts == 0, s))
+}
+
+fn limit(rpm: f64, s: &Summary) -> Limit {
+    Limit {
+        rpm: rpm.round(),
+        verdict: s.verdict,
+        reason: if s.restarts > 0 && s.verdict == Verdict::Running {
+            format!("{} restarts before holding the speed", s.restarts)
+        } else {
+            s.verdict_reason.clone()
+        },
+    }
+}
+
+/// Searches the range of `config`'s strategy (or `plugin`'s), labelled `label`, with the
+/// meter `config` sets (named `meter` in the result).
 pub fn search(
     config: &DriveConfig,
     plugin: Option<&PluginLibrary>,
     label: &str,
+    meter: &str,
 ) -> Result<Range, RunError> {
     let mut tried = Vec::new();
-    let mut test = |rpm: f64| -> Result<bool, RunError> {
-        let ok = controllable(config, plugin, rpm)?.0;
-        tried.push((rpm, ok));
-        Ok(ok)
+    let mut range = Range {
+        strategy: label.to_string(),
+        meter: meter.to_string(),
+        min_rpm: None,
+        min_limit: None,
+        max_rpm: None,
+        max_limit: None,
+        criterion: CRITERION,
+        resolution_pct: RESOLUTION * 100.0,
+        tried: Vec::new(),
+        gaps_rpm: Vec::new(),
     };
     let mut seed = None;
     for s in SEEDS {
-        if test(s)? {
+        let (ok, sum) = controllable(config, plugin, s)?;
+        tried.push((s, ok));
+        if ok {
             seed = Some(s);
             break;
         }
+        range.max_limit = Some(limit(s, &sum));
     }
     let Some(seed) = seed else {
-        return Ok(Range {
-            strategy: label.to_string(),
-            min_rpm: None,
-            max_rpm: None,
-            criterion: CRITERION,
-            resolution_pct: RESOLUTION * 100.0,
-            tried,
-            gaps_rpm: Vec::new(),
-        });
+        range.tried = tried;
+        return Ok(range);
     };
-    // Down: `good` passes, `bad` fails (or is below the search floor).
-    let (mut good, mut bad) = (seed, SEARCH_MIN_RPM);
-    if test(bad)? {
-        good = bad;
-    } else {
-        while good - bad > RESOLUTION * good {
-            let mid = (good * bad).sqrt(); // geometric: speeds span two decades
-            if test(mid)? { good = mid } else { bad = mid }
+    range.max_limit = None;
+    // Floor: `good` holds after the turn-down, `bad` does not (0 rpm never does).
+    let (mut good, mut bad) = (seed, 0.0);
+    while good - bad > (RESOLUTION * good).max(FLOOR_RESOLUTION_RPM) {
+        let mid = 0.5 * (good + bad);
+        let (ok, sum) = held_after_turn_down(config, plugin, seed, mid)?;
+        tried.push((mid, ok));
+        if ok {
+            good = mid;
+        } else {
+            bad = mid;
+            range.min_limit = Some(limit(mid, &sum));
         }
     }
-    let min_rpm = good.round();
+    range.min_rpm = Some(good.round());
+    // Top: `good` passes from standstill, `bad` fails (or is the ceiling).
     let (mut good, mut bad) = (seed, SEARCH_MAX_RPM);
-    if test(bad)? {
+    let (ok, sum) = controllable(config, plugin, bad)?;
+    tried.push((bad, ok));
+    if ok {
         good = bad;
     } else {
+        range.max_limit = Some(limit(bad, &sum));
         while bad - good > RESOLUTION * good {
             let mid = 0.5 * (good + bad);
-            if test(mid)? { good = mid } else { bad = mid }
+            let (ok, sum) = controllable(config, plugin, mid)?;
+            tried.push((mid, ok));
+            if ok {
+                good = mid;
+            } else {
+                bad = mid;
+                range.max_limit = Some(limit(mid, &sum));
+            }
         }
     }
-    let max_rpm = good.round();
-    let gaps_rpm = tried
+    range.max_rpm = Some(good.round());
+    range.gaps_rpm = tried
         .iter()
-        .filter(|&&(rpm, ok)| !ok && rpm > min_rpm && rpm < max_rpm)
+        .filter(|&&(rpm, ok)| !ok && rpm > seed && rpm < good)
         .map(|&(rpm, _)| rpm.round())
         .collect();
-    Ok(Range {
-        strategy: label.to_string(),
-        min_rpm: Some(min_rpm),
-        max_rpm: Some(max_rpm),
-        gaps_rpm,
-        criterion: CRITERION,
-        resolution_pct: RESOLUTION * 100.0,
-        tried,
-    })
+    range.tried = tried;
+    Ok(range)
 }

@@ -38,7 +38,7 @@ pub const METRIC_DEFINITIONS: &[(&str, &str)] = &[
     ),
     (
         "min / max rpm",
-        "lowest and highest command that is controllable: started from standstill, running closed loop after 3 s with no restart and a mean speed within 2 % of the command; found by bisection to 3 %",
+        "floor: the lowest command the drive holds (verdict `running`, no restart) after being turned down from a running speed; top: the highest it reaches from standstill; found by bisection to 3 % (floor also to 5 rpm), each with the verdict of the failed run beyond it",
     ),
     (
         "rise / overshoot / settling",
@@ -78,10 +78,18 @@ pub fn terminal_table(c: &Comparison) -> String {
         "", "rpm", "rpm", "ok", "mean / max", "rpm", "mN·m", "A", "AW on / off", "/ recovery s"
     );
     for v in &c.variants {
-        let range = c.ranges.iter().find(|r| r.strategy == v.label);
+        let range = c
+            .ranges
+            .iter()
+            .find(|r| r.strategy == v.label && r.meter == c.plan.meter.label);
         let grid: Vec<_> = c.grid.iter().filter(|g| g.variant == v.label).collect();
         let ok = grid.iter().filter(|g| holds(&g.summary)).count();
-        let at = grid.iter().find(|g| g.summary.speed_ref_rpm == trace_rpm);
+        let at_any = grid.iter().find(|g| g.summary.speed_ref_rpm == trace_rpm);
+        // A failed run's figures are not a measurement: its verdict stands in their place.
+        let at = at_any.filter(|g| holds(&g.summary));
+        let failed = at_any
+            .filter(|g| !holds(&g.summary))
+            .map(|g| g.summary.verdict.as_str().to_string());
         let step = |aw: bool| {
             c.steps
                 .iter()
@@ -98,7 +106,7 @@ pub fn terminal_table(c: &Comparison) -> String {
             opt(range.and_then(|r| r.min_rpm), 1.0, 0),
             opt(range.and_then(|r| r.max_rpm), 1.0, 0),
             format!("{ok}/{}", grid.len()),
-            at.map_or("–".into(), |g| format!(
+            at.map_or(failed.unwrap_or("–".into()), |g| format!(
                 "{:+.1} / {:.1}",
                 g.summary.commutation_error_deg_mean, g.summary.commutation_error_deg_max
             )),
@@ -132,11 +140,9 @@ pub fn terminal_table(c: &Comparison) -> String {
     s
 }
 
-/// Whether a steady-state run held its command (the range criterion).
+/// Whether a steady-state run held its command: its verdict is `running`.
 pub fn holds(s: &crate::scenario::Summary) -> bool {
-    s.running
-        && s.restarts == 0
-        && (s.speed_mean_rpm - s.speed_ref_rpm).abs() <= 0.02 * s.speed_ref_rpm
+    s.verdict.is_running()
 }
 
 /// Writes `results.json`, `results.csv`, `report.md` and the SVG plots into `dir`,
@@ -173,22 +179,24 @@ pub fn write_folder(
 
 fn grid_csv(c: &Comparison) -> String {
     let mut s = String::from(
-        "strategy,speed_ref_rpm,speed_mean_rpm,speed_ripple_rpm,torque_mean_nm,torque_ripple_nm,current_rms_a,restarts,running,commutations,commutation_error_deg_mean,commutation_error_deg_max,forced_crossings,sim_s,wall_s,realtime_factor\n",
+        "strategy,speed_ref_rpm,verdict,verdict_reason,speed_mean_rpm,speed_ripple_rpm,torque_mean_nm,torque_ripple_nm,current_rms_a,restarts,chip_running,commutations,commutation_error_deg_mean,commutation_error_deg_max,forced_crossings,sim_s,wall_s,realtime_factor\n",
     );
     for g in &c.grid {
         let m = &g.summary;
         let _ = writeln!(
             s,
-            "{},{},{:.3},{:.3},{:.6e},{:.6e},{:.5},{},{},{},{:.3},{:.3},{},{:.3},{:.3},{:.2}",
+            "{},{},{},\"{}\",{:.3},{:.3},{:.6e},{:.6e},{:.5},{},{},{},{:.3},{:.3},{},{:.3},{:.3},{:.2}",
             g.variant,
             m.speed_ref_rpm,
+            m.verdict,
+            m.verdict_reason.replace('"', "\"\""),
             m.speed_mean_rpm,
             m.speed_ripple_rpm,
             m.torque_mean_nm,
             m.torque_ripple_nm,
             m.current_rms_a,
             m.restarts,
-            m.running,
+            m.chip_running,
             m.commutations,
             m.commutation_error_deg_mean,
             m.commutation_error_deg_max,
@@ -268,7 +276,7 @@ fn ripple_chart(c: &Comparison) -> String {
                 points: c
                     .grid
                     .iter()
-                    .filter(|g| g.variant == v.label && g.summary.running)
+                    .filter(|g| g.variant == v.label && g.summary.verdict.is_running())
                     .map(|g| (g.summary.speed_ref_rpm, f(&g.summary)))
                     .collect(),
                 steps: false,
@@ -385,11 +393,19 @@ fn markdown(c: &Comparison, config: &DriveConfig, crossings: &[String]) -> Strin
     let _ = writeln!(s, "# drive-bench report\n");
     let _ = writeln!(
         s,
-        "Every built-in commutation strategy on the same motor ({} poles, R = {} Ω, supply {} V, PWM scheme `{}`), each started from standstill by its own start-up sequence. Wall time {:.1} s on {} threads.\n",
+        "Every built-in commutation strategy on the same motor ({} poles, R = {} Ω, supply {} V, PWM scheme `{}`), each started from standstill by its own start-up sequence. The chip's speed meter is the {} one ({} FG periods) in every run but the range searches, which use each of: {}. Wall time {:.1} s on {} threads.\n",
         m.poles,
         m.resistance_ohm,
         config.power_stage.supply_v,
         config.power_stage.pwm_scheme.name(),
+        c.plan.meter.label,
+        c.plan.meter.periods,
+        c.plan
+            .range_meters
+            .iter()
+            .map(|m| m.label)
+            .collect::<Vec<_>>()
+            .join(", "),
         c.wall_s,
         c.threads
     );
@@ -400,39 +416,62 @@ fn markdown(c: &Comparison, config: &DriveConfig, crossings: &[String]) -> Strin
     }
     let _ = writeln!(
         s,
-        "\n## Speed range\n\n| strategy | min rpm | max rpm | runs | failed inside the range |\n|---|---:|---:|---:|---|"
+        "\n## Speed range\n\nJudged by the verdict ({}). Each bound is followed by what stops it: the verdict of the failed run just beyond it.\n\n| strategy | meter | floor rpm | limited by | top rpm | limited by | runs |\n|---|---|---:|---|---:|---|---:|",
+        super::range::CRITERION
     );
+    let lim = |l: &Option<super::range::Limit>| {
+        l.as_ref().map_or("–".to_string(), |l| {
+            format!("{:.0} rpm: **{}**: {}", l.rpm, l.verdict, l.reason)
+        })
+    };
     for r in &c.ranges {
-        let gaps: Vec<String> = r.gaps_rpm.iter().map(|g| format!("{g:.0}")).collect();
         let _ = writeln!(
             s,
-            "| {} | {} | {} | {} | {} |",
+            "| {} | {} | {} | {} | {} | {} | {} |",
             r.strategy,
+            r.meter,
             opt(r.min_rpm, 1.0, 0),
+            lim(&r.min_limit),
             opt(r.max_rpm, 1.0, 0),
+            lim(&r.max_limit),
             r.tried.len(),
-            if gaps.is_empty() {
-                "–".to_string()
-            } else {
-                gaps.join(", ")
-            }
         );
     }
+    let gaps: Vec<String> = c
+        .ranges
+        .iter()
+        .filter(|r| !r.gaps_rpm.is_empty())
+        .map(|r| format!("{} ({}): {:?} rpm", r.strategy, r.meter, r.gaps_rpm))
+        .collect();
     let _ = writeln!(
         s,
-        "\nThe search is a bisection from the first of 3000, 2000, 4500, 1000, 6000 rpm that passes; it assumes the controllable speeds form one interval. Speeds listed as failed inside the range show where that assumption breaks."
+        "\nThe top-speed search is a bisection from the first of 3000, 2000, 4500, 1000, 6000 rpm that passes from standstill; it assumes the controllable speeds form one interval. Failed inside the range: {}.",
+        if gaps.is_empty() {
+            "none".to_string()
+        } else {
+            gaps.join("; ")
+        }
     );
     let _ = writeln!(
         s,
-        "\n## Steady state\n\n| strategy | command rpm | mean rpm | ripple rpm | torque mN·m | ripple mN·m | I rms A | err mean ° | err max ° | forced | restarts |\n|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"
+        "\n## Steady state\n\nEvery run is judged from the true rotor (verdicts below); only runs judged `running` show figures, the others show why they failed.\n\n| strategy | command rpm | verdict | mean rpm | ripple rpm | torque mN·m | ripple mN·m | I rms A | err mean ° | err max ° | forced | restarts |\n|---|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|"
     );
     for g in &c.grid {
         let x = &g.summary;
+        if !holds(x) {
+            let _ = writeln!(
+                s,
+                "| {} | {:.0} | **{}**: {} | – | – | – | – | – | – | – | – | {} |",
+                g.variant, x.speed_ref_rpm, x.verdict, x.verdict_reason, x.restarts
+            );
+            continue;
+        }
         let _ = writeln!(
             s,
-            "| {} | {:.0} | {:.0} | {:.1} | {:.3} | {:.3} | {:.3} | {:+.2} | {:.2} | {} | {} |",
+            "| {} | {:.0} | {} | {:.0} | {:.1} | {:.3} | {:.3} | {:.3} | {:+.2} | {:.2} | {} | {} |",
             g.variant,
             x.speed_ref_rpm,
+            x.verdict,
             x.speed_mean_rpm,
             x.speed_ripple_rpm,
             x.torque_mean_nm * 1e3,

@@ -41,9 +41,15 @@ struct CompareArgs {
 
 #[derive(Subcommand)]
 enum Cmd {
-    /// Runs one scenario and prints its summary.
+    /// Runs one scenario from standstill and prints its verdict and summary.
+    ///
+    /// The verdict is judged from the true rotor, not from what the controller believes,
+    /// and sets the exit status: 0 running, 3 off-speed, 4 lost-sync, 5 stalled,
+    /// 6 not-started, 7 gave-up, 8 non-finite (1: an error, 2: a bad command line).
     Run(RunArgs),
-    /// Finds the lowest and highest controllable speed of a strategy.
+    /// Finds the lowest speed a strategy holds after being turned down and the highest it
+    /// reaches from standstill, each judged by the verdict, with a 24-bit speed meter (one
+    /// that does not bind) and with the published 15-bit one.
     Range {
         /// Strategy name (see `drive-bench list`).
         #[arg(long)]
@@ -95,9 +101,13 @@ struct RunArgs {
 
 fn main() {
     let cli = Cli::parse();
-    if let Err(e) = run(cli) {
-        eprintln!("drive-bench: error: {e}");
-        std::process::exit(1);
+    match run(cli) {
+        Ok(0) => {}
+        Ok(code) => std::process::exit(code),
+        Err(e) => {
+            eprintln!("drive-bench: error: {e}");
+            std::process::exit(1);
+        }
     }
 }
 
@@ -139,7 +149,7 @@ fn apply(chosen: Chosen, cfg: &mut DriveConfig) -> Option<PluginLibrary> {
     }
 }
 
-fn run(cli: Cli) -> Result<(), String> {
+fn run(cli: Cli) -> Result<i32, String> {
     let c = &cli.compare;
     if cli.cmd.is_some()
         && (c.out.is_some() || c.config.is_some() || c.threads.is_some() || c.quick)
@@ -150,7 +160,7 @@ fn run(cli: Cli) -> Result<(), String> {
     }
     let plugins = load_plugins(&cli.plugin)?;
     match cli.cmd {
-        None => compare(cli.compare, plugins),
+        None => compare(cli.compare, plugins).map(|()| 0),
         Some(Cmd::Run(a)) => run_one(a, &plugins),
         Some(Cmd::Range {
             strategy,
@@ -160,25 +170,41 @@ fn run(cli: Cli) -> Result<(), String> {
             let mut cfg = load_config(config.as_deref())?;
             let plugin = apply(choose(&strategy, &plugins)?, &mut cfg);
             cfg.validate().map_err(|e| e.to_string())?;
-            let r = range::search(&cfg, plugin.as_ref(), &strategy).map_err(|e| e.to_string())?;
-            println!(
-                "{}: min {} rpm, max {} rpm ({} runs)\ncriterion: {}",
-                r.strategy,
-                r.min_rpm.map_or("none".into(), |x| format!("{x:.0}")),
-                r.max_rpm.map_or("none".into(), |x| format!("{x:.0}")),
-                r.tried.len(),
-                r.criterion
-            );
-            if !r.gaps_rpm.is_empty() {
+            let mut found = Vec::new();
+            for m in [range::Meter::WIDE, range::Meter::AS_PUBLISHED] {
+                let r = range::search(&m.apply(&cfg), plugin.as_ref(), &strategy, m.label)
+                    .map_err(|e| e.to_string())?;
+                let bound = |rpm: Option<f64>, l: &Option<range::Limit>| {
+                    let at = rpm.map_or("none".into(), |x| format!("{x:.0} rpm"));
+                    match l {
+                        Some(l) => {
+                            format!("{at} (at {:.0} rpm: {}: {})", l.rpm, l.verdict, l.reason)
+                        }
+                        None => at,
+                    }
+                };
                 println!(
-                    "failed inside the range (not one interval): {:?} rpm",
-                    r.gaps_rpm
+                    "{}, meter {}: ({} runs)\n  floor {}\n  top {}",
+                    r.strategy,
+                    r.meter,
+                    r.tried.len(),
+                    bound(r.min_rpm, &r.min_limit),
+                    bound(r.max_rpm, &r.max_limit),
                 );
+                if !r.gaps_rpm.is_empty() {
+                    println!(
+                        "  failed inside the range (not one interval): {:?} rpm",
+                        r.gaps_rpm
+                    );
+                }
+                found.push(r);
             }
+            println!("criterion: {}", range::CRITERION);
+            let r = found;
             if let Some(p) = json {
                 write(&p, &to_json(&r)?)?;
             }
-            Ok(())
+            Ok(0)
         }
         Some(Cmd::List) => {
             for n in StrategyName::ALL {
@@ -192,11 +218,11 @@ fn run(cli: Cli) -> Result<(), String> {
                     p.description()
                 );
             }
-            Ok(())
+            Ok(0)
         }
         Some(Cmd::Config) => {
             print!("{}", DriveConfig::default().to_toml());
-            Ok(())
+            Ok(0)
         }
     }
 }
@@ -235,7 +261,7 @@ fn compare(a: CompareArgs, plugins: Vec<PluginLibrary>) -> Result<(), String> {
     Ok(())
 }
 
-fn run_one(a: RunArgs, plugins: &[PluginLibrary]) -> Result<(), String> {
+fn run_one(a: RunArgs, plugins: &[PluginLibrary]) -> Result<i32, String> {
     let mut cfg = load_config(a.config.as_deref())?;
     let plugin = apply(choose(&a.strategy, plugins)?, &mut cfg);
     if let Some(seed) = a.seed {
@@ -278,10 +304,8 @@ fn run_one(a: RunArgs, plugins: &[PluginLibrary]) -> Result<(), String> {
         }
     }
     let s = &out.summary;
-    println!(
-        "{} at {:.0} rpm: mean {:.1} rpm, ripple {:.2} rpm, torque {:.4} mN·m ± {:.4}, I rms {:.4} A, commutation error {:+.2}° mean / {:.2}° max over {} commutations, {} restarts, {} ({:.1}× real time)",
-        s.strategy,
-        s.speed_ref_rpm,
+    let figures = format!(
+        "mean {:.1} rpm, ripple {:.2} rpm, torque {:.4} mN·m ± {:.4}, I rms {:.4} A, commutation error {:+.2}° mean / {:.2}° max over {} commutations, {} restarts ({:.1}× real time)",
         s.speed_mean_rpm,
         s.speed_ripple_rpm,
         s.torque_mean_nm * 1e3,
@@ -291,13 +315,24 @@ fn run_one(a: RunArgs, plugins: &[PluginLibrary]) -> Result<(), String> {
         s.commutation_error_deg_max,
         s.commutations,
         s.restarts,
-        if s.running { "running" } else { "NOT running" },
         s.realtime_factor
     );
+    let figures = if s.verdict.is_running() {
+        figures
+    } else {
+        format!("not a valid measurement (the drive failed): {figures}")
+    };
+    let text = format!(
+        "{} at {:.0} rpm: {}: {}\n  {figures}\n",
+        s.strategy, s.speed_ref_rpm, s.verdict, s.verdict_reason
+    );
+    // A reader that went away (`| head`) is not an error of the run: the verdict still
+    // sets the exit status.
+    let _ = std::io::stdout().lock().write_all(text.as_bytes());
     if let Some(p) = a.json {
         write(&p, &to_json(s)?)?;
     }
-    Ok(())
+    Ok(s.verdict.exit_code())
 }
 
 fn load_config(path: Option<&Path>) -> Result<DriveConfig, String> {

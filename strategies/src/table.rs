@@ -134,6 +134,14 @@ impl Table {
         }
     }
 
+    /// Commutation states per electrical turn: 6 or 12.
+    pub fn states_per_turn(&self) -> u32 {
+        match self {
+            Table::SixStep => 6,
+            Table::TwelveStep { .. } => 12,
+        }
+    }
+
     /// Length of the post part as a fraction num/den of the last 60° interval: 1/2 for
     /// six-step, (α − 120)/60 for twelve-step, with α in hundredths of a degree.
     pub fn post_fraction(&self) -> (u64, u64) {

@@ -1,0 +1,459 @@
+//! The verdict of a run: judged from the true rotor, never from what the controller
+//! believes.
+//!
+//! A sensorless controller can be wrong about everything at once: locked on false
+//! crossings it reports a speed, commutates and stays "running" while the rotor stands
+//! still. So the verdict compares the controller's commutations with the plant's true
+//! electrical angle θe and the command with the true speed:
+//!
+//! - **in synchronism** over the steady-state window when the controller stayed in closed
+//!   loop, at least [`VerdictRule::sync_share`] of its commutations fell within
+//!   ±[`VerdictRule::sync_error_deg`] of the table boundary of the state they entered, and
+//!   it commutated as often as the rotor passed states: N_comm = n_states·∫ωe dt/2π within
+//!   one electrical turn's states (plus 2 %). A locked commutation is a few degrees off
+//!   (sensing and filter delays); a lost one spreads its errors over ±180° (mean |error|
+//!   ≈ 90°), so the 30° default sits far from both.
+//! - **started** once the rotor has followed the commutation: at some time in the run,
+//!   [`VerdictRule::started_turns`] electrical turns' worth of consecutive commutations all
+//!   within the sync error.
+//!
+//! The verdicts, in the order they are tested (the first that applies):
+//! `non-finite` (the plant state left the reals), `gave-up` (restarts exhausted, drive
+//! off), `not-started` (never started), `stalled` (true mean speed below
+//! [`VerdictRule::stalled_fraction`] of the command), `lost-sync` (the controller believes
+//! it runs, or restarted in the window, and the rotor disagrees), `off-speed` (in
+//! synchronism, but the true mean speed is outside ±[`VerdictRule::speed_tolerance`] of
+//! the command: beyond reach, or hunting), `running`.
+
+use crate::metrics::wrap_deg;
+use serde::Serialize;
+use std::fmt;
+
+/// What a run came to.
+#[derive(Copy, Clone, Debug, PartialEq, Eq, Hash, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Verdict {
+    /// Closed loop, in synchronism, true mean speed within tolerance of the command.
+    Running,
+    /// In synchronism, but the true mean speed is off the command.
+    OffSpeed,
+    /// The controller believes it runs (or restarted in the window); the rotor disagrees.
+    LostSync,
+    /// The rotor (nearly) stands still after having started.
+    Stalled,
+    /// The rotor never followed the commutation.
+    NotStarted,
+    /// Restarts exhausted: the drive switched off for good.
+    GaveUp,
+    /// The plant state became non-finite.
+    NonFinite,
+}
+
+impl Verdict {
+    /// Every verdict, best first.
+    pub const ALL: [Verdict; 7] = [
+        Verdict::Running,
+        Verdict::OffSpeed,
+        Verdict::LostSync,
+        Verdict::Stalled,
+        Verdict::NotStarted,
+        Verdict::GaveUp,
+        Verdict::NonFinite,
+    ];
+
+    /// The name used in tables, JSON and CSV.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Verdict::Running => "running",
+            Verdict::OffSpeed => "off-speed",
+            Verdict::LostSync => "lost-sync",
+            Verdict::Stalled => "stalled",
+            Verdict::NotStarted => "not-started",
+            Verdict::GaveUp => "gave-up",
+            Verdict::NonFinite => "non-finite",
+        }
+    }
+
+    /// Exit status of `drive-bench run` (1 is an error before or during the run, 2 a
+    /// command-line error).
+    pub fn exit_code(self) -> i32 {
+        match self {
+            Verdict::Running => 0,
+            Verdict::OffSpeed => 3,
+            Verdict::LostSync => 4,
+            Verdict::Stalled => 5,
+            Verdict::NotStarted => 6,
+            Verdict::GaveUp => 7,
+            Verdict::NonFinite => 8,
+        }
+    }
+
+    /// Whether the run's steady-state figures describe a drive doing its job.
+    pub fn is_running(self) -> bool {
+        self == Verdict::Running
+    }
+}
+
+impl fmt::Display for Verdict {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.as_str())
+    }
+}
+
+/// The thresholds of the verdict (see the module doc for the reasoning).
+#[derive(Copy, Clone, Debug, PartialEq, Serialize)]
+pub struct VerdictRule {
+    /// Tolerance of the true mean speed around the command [fraction]. Default 0.02.
+    pub speed_tolerance: f64,
+    /// Largest |commutation-angle error| of a commutation in synchronism [electrical °].
+    /// Default 30.
+    pub sync_error_deg: f64,
+    /// Share of the window's commutations that must be in synchronism. Default 0.95.
+    pub sync_share: f64,
+    /// Below this fraction of the command the true mean speed counts as stalled.
+    /// Default 0.1.
+    pub stalled_fraction: f64,
+    /// Electrical turns of consecutive commutations in synchronism that make a start.
+    /// Default 2.
+    pub started_turns: u32,
+}
+
+impl Default for VerdictRule {
+    fn default() -> Self {
+        VerdictRule {
+            speed_tolerance: 0.02,
+            sync_error_deg: 30.0,
+            sync_share: 0.95,
+            stalled_fraction: 0.1,
+            started_turns: 2,
+        }
+    }
+}
+
+/// A verdict and its one-line reason.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Judgement {
+    /// The verdict.
+    pub verdict: Verdict,
+    /// Why, in one line with the numbers that decided it.
+    pub reason: String,
+}
+
+/// What the run showed, collected while it runs (see [`Witness::commutation`] and
+/// [`Witness::instant`]) and judged at its end.
+#[derive(Clone, Debug, Default)]
+pub struct Witness {
+    rule: VerdictRule,
+    states_per_turn: u32,
+    streak: u32,
+    started_at_s: Option<f64>,
+    handed_over: bool,
+    non_finite_at_s: Option<f64>,
+    window_commutations: u64,
+    window_in_sync: u64,
+    window_left_closed_loop: bool,
+    restarts_at_window: Option<u32>,
+}
+
+/// What the run ended with, for [`Witness::judge`].
+#[derive(Copy, Clone, Debug)]
+pub struct Ending {
+    /// Speed command at the end \[rpm\].
+    pub command_rpm: f64,
+    /// Time-weighted true mean speed over the window \[rpm\].
+    pub speed_mean_rpm: f64,
+    /// Length of the window \[s\].
+    pub window_s: f64,
+    /// Pole pairs P/2.
+    pub pole_pairs: u32,
+    /// The controller's speed estimate at the end \[rpm\].
+    pub chip_speed_rpm: f64,
+    /// Restarts in the whole run, and the controller's limit.
+    pub restarts: (u32, u32),
+    /// The controller ended switched off after exhausting its restarts.
+    pub gave_up: bool,
+}
+
+impl Witness {
+    /// A witness for a commutation table of `states_per_turn` states per electrical turn.
+    pub fn new(rule: VerdictRule, states_per_turn: u32) -> Self {
+        Witness {
+            rule,
+            states_per_turn: states_per_turn.max(1),
+            ..Witness::default()
+        }
+    }
+
+    /// A commutation at `t_s` into a state starting at `boundary_deg`, with the rotor at
+    /// the true angle `theta_deg`; `in_window` when inside the steady-state window.
+    pub fn commutation(&mut self, t_s: f64, theta_deg: f64, boundary_deg: f64, in_window: bool) {
+        let ok = wrap_deg(theta_deg - boundary_deg).abs() <= self.rule.sync_error_deg;
+        self.streak = if ok { self.streak + 1 } else { 0 };
+        if self.started_at_s.is_none()
+            && self.streak >= self.rule.started_turns * self.states_per_turn
+        {
+            self.started_at_s = Some(t_s);
+        }
+        if in_window {
+            self.window_commutations += 1;
+            self.window_in_sync += u64::from(ok);
+        }
+    }
+
+    /// An engine instant at `t_s`: whether the controller is in closed loop, its restarts
+    /// so far, whether the plant's signals are finite, and whether `t_s` is in the window.
+    pub fn instant(
+        &mut self,
+        t_s: f64,
+        closed_loop: bool,
+        restarts: u32,
+        finite: bool,
+        in_window: bool,
+    ) {
+        self.handed_over |= closed_loop;
+        if !finite && self.non_finite_at_s.is_none() {
+            self.non_finite_at_s = Some(t_s);
+        }
+        if in_window {
+            self.restarts_at_window.get_or_insert(restarts);
+            self.window_left_closed_loop |= !closed_loop;
+        }
+    }
+
+    /// When the rotor first followed the commutation \[s\].
+    pub fn started_at_s(&self) -> Option<f64> {
+        self.started_at_s
+    }
+
+    /// The verdict.
+    pub fn judge(&self, end: &Ending) -> Judgement {
+        let r = &self.rule;
+        let cmd = end.command_rpm;
+        let mean = end.speed_mean_rpm;
+        let j = |verdict, reason: String| Judgement { verdict, reason };
+        if let Some(t) = self.non_finite_at_s {
+            return j(
+                Verdict::NonFinite,
+                format!("the plant's state became non-finite at t = {t:.6} s"),
+            );
+        }
+        if !mean.is_finite() {
+            return j(Verdict::NonFinite, format!("the true mean speed is {mean}"));
+        }
+        if end.gave_up {
+            return j(
+                Verdict::GaveUp,
+                format!(
+                    "the controller switched off after {} restarts (limit {})",
+                    end.restarts.0, end.restarts.1
+                ),
+            );
+        }
+        if self.started_at_s.is_none() {
+            let why = if self.handed_over {
+                format!(
+                    "the controller reached closed loop but the rotor never followed {} electrical turns of its commutation (within ±{}°)",
+                    r.started_turns, r.sync_error_deg
+                )
+            } else {
+                "the controller never reached closed loop".to_string()
+            };
+            return j(
+                Verdict::NotStarted,
+                format!(
+                    "{why}; true mean speed {mean:.1} rpm, controller's estimate {:.0} rpm, {} restarts",
+                    end.chip_speed_rpm, end.restarts.0
+                ),
+            );
+        }
+        if mean.abs() < r.stalled_fraction * cmd {
+            return j(
+                Verdict::Stalled,
+                format!(
+                    "true mean speed {mean:.1} rpm, below {:.0} % of the {cmd:.0} rpm command (controller's estimate {:.0} rpm)",
+                    100.0 * r.stalled_fraction,
+                    end.chip_speed_rpm
+                ),
+            );
+        }
+        let restarts_in_window = end.restarts.0 - self.restarts_at_window.unwrap_or(end.restarts.0);
+        if restarts_in_window > 0 || self.window_left_closed_loop {
+            return j(
+                Verdict::LostSync,
+                format!(
+                    "the controller was not in closed loop throughout the steady-state window ({restarts_in_window} of its {} restarts there)",
+                    end.restarts.0
+                ),
+            );
+        }
+        // States the rotor passed through in the window, from its true mean speed.
+        let passed = f64::from(self.states_per_turn)
+            * (mean / 60.0 * f64::from(end.pole_pairs) * end.window_s).abs();
+        let slack = f64::from(self.states_per_turn) + 0.02 * passed;
+        let n = self.window_commutations as f64;
+        let share = if n > 0.0 {
+            self.window_in_sync as f64 / n
+        } else {
+            0.0
+        };
+        if share < r.sync_share || (n - passed).abs() > slack {
+            return j(
+                Verdict::LostSync,
+                format!(
+                    "{:.0} % of {n:.0} commutations within ±{}° of the true angle (rule ≥ {:.0} %), the rotor passed {passed:.0} states; true mean {mean:.1} rpm, controller's estimate {:.0} rpm",
+                    100.0 * share,
+                    r.sync_error_deg,
+                    100.0 * r.sync_share,
+                    end.chip_speed_rpm
+                ),
+            );
+        }
+        let off = (mean - cmd) / cmd.max(f64::MIN_POSITIVE);
+        if off.abs() > r.speed_tolerance {
+            return j(
+                Verdict::OffSpeed,
+                format!(
+                    "in synchronism, true mean {mean:.1} rpm against the {cmd:.0} rpm command ({:+.1} %, tolerance ±{:.0} %)",
+                    100.0 * off,
+                    100.0 * r.speed_tolerance
+                ),
+            );
+        }
+        j(
+            Verdict::Running,
+            format!(
+                "in synchronism ({:.1} % of {n:.0} commutations within ±{}°), true mean {mean:.1} rpm ({:+.2} % of the command)",
+                100.0 * share,
+                r.sync_error_deg,
+                100.0 * off
+            ),
+        )
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn ending(mean: f64) -> Ending {
+        Ending {
+            command_rpm: 3000.0,
+            speed_mean_rpm: mean,
+            window_s: 1.0,
+            pole_pairs: 6,
+            chip_speed_rpm: 3000.0,
+            restarts: (0, 5),
+            gave_up: false,
+        }
+    }
+
+    /// A rotor at `rpm` commutated by a twelve-step table with errors `err` (cycled).
+    fn witness(rpm: f64, err: &[f64], window_s: f64) -> Witness {
+        let mut w = Witness::new(VerdictRule::default(), 12);
+        // 3000 rpm, 6 pole pairs: 300 electrical turns per second, 3600 commutations.
+        let n = (12.0 * rpm / 60.0 * 6.0 * window_s).round() as usize;
+        for k in 0..n {
+            let t = 2.0 + window_s * k as f64 / n as f64;
+            w.instant(t, true, 0, true, true);
+            w.commutation(
+                t,
+                30.0 * (k % 12) as f64 + err[k % err.len()],
+                30.0 * (k % 12) as f64,
+                true,
+            );
+        }
+        w
+    }
+
+    #[test]
+    fn a_locked_drive_at_its_command_runs() {
+        let j = witness(3000.0, &[2.0, -3.0, 5.0], 1.0).judge(&ending(2990.0));
+        assert_eq!(j.verdict, Verdict::Running, "{}", j.reason);
+    }
+
+    #[test]
+    fn in_sync_but_off_the_command_is_off_speed() {
+        let j = witness(2900.0, &[2.0], 1.0).judge(&ending(2900.0));
+        assert_eq!(j.verdict, Verdict::OffSpeed, "{}", j.reason);
+        assert!(j.reason.contains("-3.3 %"), "{}", j.reason);
+    }
+
+    #[test]
+    fn errors_spread_over_the_circle_are_lost_sync() {
+        // After a good start, 1 commutation in 4 more than 30° off: 75 % < 95 %.
+        let mut w = witness(3000.0, &[0.0], 0.1);
+        for k in 0..3600 {
+            let e = if k % 4 == 0 { 100.0 } else { 1.0 };
+            w.commutation(2.1 + k as f64 / 3600.0, e, 0.0, true);
+        }
+        let j = w.judge(&ending(3000.0));
+        assert_eq!(j.verdict, Verdict::LostSync, "{}", j.reason);
+    }
+
+    #[test]
+    fn commutating_faster_than_the_rotor_turns_is_lost_sync() {
+        // Every commutation on its boundary, but twice as many as a 3000 rpm rotor passes.
+        let w = witness(6000.0, &[0.0], 1.0);
+        assert_eq!(w.judge(&ending(3000.0)).verdict, Verdict::LostSync);
+        // One turn's states more is within the slack.
+        let mut w = witness(3000.0, &[0.0], 1.0);
+        for k in 0..12 {
+            w.commutation(3.0, 30.0 * k as f64, 30.0 * k as f64, true);
+        }
+        assert_eq!(w.judge(&ending(3000.0)).verdict, Verdict::Running);
+    }
+
+    #[test]
+    fn a_rotor_that_never_followed_did_not_start_and_a_stopped_one_stalled() {
+        // 23 good commutations, one bad, 23 good: never 24 in a row.
+        let mut w = Witness::new(VerdictRule::default(), 12);
+        for k in 0..47 {
+            w.instant(1.0, true, 0, true, false);
+            w.commutation(1.0, if k == 23 { 90.0 } else { 0.0 }, 0.0, false);
+        }
+        let j = w.judge(&ending(0.0));
+        assert_eq!(j.verdict, Verdict::NotStarted, "{}", j.reason);
+        assert!(j.reason.contains("reached closed loop"), "{}", j.reason);
+        assert_eq!(
+            Witness::new(VerdictRule::default(), 12)
+                .judge(&ending(0.0))
+                .verdict,
+            Verdict::NotStarted
+        );
+        w.commutation(1.0, 0.0, 0.0, false);
+        assert_eq!(w.started_at_s(), Some(1.0));
+        assert_eq!(w.judge(&ending(299.0)).verdict, Verdict::Stalled);
+    }
+
+    #[test]
+    fn give_up_and_non_finite_come_first() {
+        let mut w = witness(3000.0, &[0.0], 1.0);
+        let mut e = ending(3000.0);
+        e.gave_up = true;
+        assert_eq!(w.judge(&e).verdict, Verdict::GaveUp);
+        assert_eq!(w.judge(&ending(f64::NAN)).verdict, Verdict::NonFinite);
+        w.instant(2.5, true, 0, false, true);
+        assert_eq!(w.judge(&ending(3000.0)).verdict, Verdict::NonFinite);
+    }
+
+    #[test]
+    fn a_restart_in_the_window_is_lost_sync() {
+        let mut w = witness(3000.0, &[0.0], 1.0);
+        w.instant(2.9, false, 1, true, true);
+        let j = w.judge(&Ending {
+            restarts: (1, 5),
+            ..ending(3000.0)
+        });
+        assert_eq!(j.verdict, Verdict::LostSync, "{}", j.reason);
+    }
+
+    #[test]
+    fn exit_codes_are_distinct_and_zero_only_when_running() {
+        let mut codes: Vec<i32> = Verdict::ALL.iter().map(|v| v.exit_code()).collect();
+        assert_eq!(codes[0], 0);
+        codes.sort();
+        codes.dedup();
+        assert_eq!(codes.len(), Verdict::ALL.len());
+        assert!(!codes[1..].contains(&1) && !codes.contains(&2));
+    }
+}
