@@ -335,5 +335,15 @@ pub(crate) fn build_table() -> Vec<Variable> {
         // Strategy plugin: last, so adding it left every other value reference unchanged.
         var("strategy.plugin", Kind::String, Role::Text(Text::StrategyPlugin), "",
             "Strategy plugin: a shared library built against strategy-abi, as an absolute path or relative to the FMU's resources folder; its strategy replaces strategy.name. Empty: the built-in strategy.name"),
+        // Appended after the plugin so that every earlier value reference stays unchanged.
+        var("control.speed_anti_windup", Boolean, Role::Parameter {
+            get: |c| f64::from(u8::from(c.control.speed_anti_windup)),
+            set: |c, v| {
+                c.control.speed_anti_windup = v != 0.0;
+                Ok(())
+            },
+        }, "", "Back-calculation anti-windup on the speed PI (not in the chip)"),
+        real!("control.speed_anti_windup_gain", control.speed_anti_windup_gain, "1", z, Some(2.0),
+            "Back-calculation gain of the speed PI (> 0)"),
     ]
 }

@@ -85,7 +85,7 @@ pub struct Plan {
     pub grid_duration_s: f64,
     /// Grid speed whose run also records the crossing trace \[rpm\].
     pub trace_rpm: f64,
-    /// Speed step out of saturation (what anti-windup is for).
+    /// The anti-windup comparison: runs that drive a PI into saturation.
     pub step: StepPlan,
     /// Load step: speed \[rpm\], torque [N·m], at \[s\], run length \[s\].
     pub load: (f64, f64, f64, f64),
@@ -103,14 +103,7 @@ impl Default for Plan {
             grid_rpm: vec![1000.0, 2000.0, 3000.0, 4500.0, 6000.0, 9000.0],
             grid_duration_s: 3.0,
             trace_rpm: 3000.0,
-            step: StepPlan {
-                start_rpm: 3000.0,
-                beyond_rpm: 16000.0,
-                beyond_at_s: 1.5,
-                to_rpm: 8000.0,
-                at_s: 3.5,
-                duration_s: 4.5,
-            },
+            step: StepPlan::default(),
             load: (3000.0, 4e-4, 2.5, 4.0),
             ranges: true,
             meter: range::Meter::WIDE,
@@ -119,24 +112,123 @@ impl Default for Plan {
     }
 }
 
-/// A speed step that starts from a saturated current loop: the drive runs at
-/// `start_rpm`, is commanded `beyond_rpm` (beyond its reach, so the voltage command sits
-/// at full scale and an unprotected integrator winds up) at `beyond_at_s`, and at `at_s`
-/// the command steps down to `to_rpm`. The response is measured from that step.
-#[derive(Copy, Clone, Debug, Serialize)]
+/// The anti-windup comparison: each case on each listed variant, with anti-windup off,
+/// on the current PI only (the chip's) and on both PIs.
+///
+/// Which PI saturates decides which anti-windup can act. With the 0.25 A current limit
+/// the current PI has duty to spare below ≈ 9000 rpm, so only near top speed does the
+/// voltage command sit at full scale; the speed PI saturates at the current limit when
+/// Kp·e exceeds it (a step of more than ≈ 5000 rpm) or under a load the limit cannot hold.
+/// A step such as 1000 → 2500 rpm saturates neither (Kp·1500 rpm = 0.075 A), and 1000 rpm
+/// lies below what the 15-bit speed meter reads (≈ 1192 rpm), hence the low speed here is
+/// 1500 rpm.
+#[derive(Clone, Debug, Serialize)]
 pub struct StepPlan {
+    /// Labels of the variants to run (the guards that hold 1500 rpm: ND's floor is ≈ 4700
+    /// rpm, raw mis-commutates at low speed).
+    pub variants: Vec<String>,
+    /// The cases.
+    pub cases: Vec<AwCase>,
+}
+
+impl Default for StepPlan {
+    fn default() -> Self {
+        StepPlan {
+            variants: vec!["twelve-step-lm".into(), "twelve-step-df".into()],
+            cases: vec![
+                AwCase {
+                    name: "step 1500 → 6000 rpm".into(),
+                    saturates: "speed PI at the current limit".into(),
+                    start_rpm: 3000.0,
+                    speed_steps: vec![(1.5, 1500.0), (3.0, 6000.0)],
+                    load_steps: Vec::new(),
+                    at_s: 3.0,
+                    to_rpm: 6000.0,
+                    duration_s: 5.5,
+                },
+                AwCase {
+                    name: "step 16000 (beyond reach) → 8000 rpm".into(),
+                    saturates: "current PI at full duty, speed PI at the current limit".into(),
+                    start_rpm: 3000.0,
+                    speed_steps: vec![(1.5, 16000.0), (3.5, 8000.0)],
+                    load_steps: Vec::new(),
+                    at_s: 3.5,
+                    to_rpm: 8000.0,
+                    duration_s: 5.5,
+                },
+                AwCase {
+                    name: "load 2.5 mN·m at 6000 rpm, 2–3 s".into(),
+                    saturates: "speed PI at the current limit".into(),
+                    start_rpm: 6000.0,
+                    speed_steps: Vec::new(),
+                    load_steps: vec![(2.0, 2.5e-3), (3.0, 0.0)],
+                    at_s: 3.0,
+                    to_rpm: 6000.0,
+                    duration_s: 5.0,
+                },
+            ],
+        }
+    }
+}
+
+/// One anti-windup case: a schedule, and the instant from which the response is measured
+/// (a speed step, or the release of a load).
+#[derive(Clone, Debug, Serialize)]
+pub struct AwCase {
+    /// Name in tables and plots.
+    pub name: String,
+    /// Which PI it saturates, and where.
+    pub saturates: String,
     /// Command from t = 0 \[rpm\].
     pub start_rpm: f64,
-    /// Command beyond reach \[rpm\].
-    pub beyond_rpm: f64,
-    /// When it is given \[s\].
-    pub beyond_at_s: f64,
-    /// Command of the measured step \[rpm\].
-    pub to_rpm: f64,
-    /// When \[s\].
+    /// Later commands: (t \[s\], rpm).
+    pub speed_steps: Vec<(f64, f64)>,
+    /// Load torque: (t \[s\], N·m); the first non-zero one is the load whose dip is shown.
+    pub load_steps: Vec<(f64, f64)>,
+    /// Start of the measured response \[s\].
     pub at_s: f64,
+    /// Command from then on \[rpm\].
+    pub to_rpm: f64,
     /// Run length \[s\].
     pub duration_s: f64,
+}
+
+impl AwCase {
+    /// Whether the measured event is a step of the command down (peak = undershoot).
+    pub fn is_step_down(&self) -> bool {
+        let before = self
+            .speed_steps
+            .iter()
+            .rfind(|p| p.0 < self.at_s)
+            .map_or(self.start_rpm, |p| p.1);
+        self.to_rpm < before
+    }
+}
+
+/// Where anti-windup acts in a run of the comparison.
+#[derive(Copy, Clone, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum AntiWindup {
+    /// Neither PI: clamped integrators only (the current PI's up to its 23-bit register).
+    Off,
+    /// The current PI (the chip's: `control.anti_windup`).
+    Current,
+    /// Both PIs (`control.anti_windup` and `control.speed_anti_windup`).
+    Both,
+}
+
+impl AntiWindup {
+    /// Every setting, in report order.
+    pub const ALL: [AntiWindup; 3] = [AntiWindup::Off, AntiWindup::Current, AntiWindup::Both];
+
+    /// Short name.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            AntiWindup::Off => "off",
+            AntiWindup::Current => "current PI",
+            AntiWindup::Both => "both PIs",
+        }
+    }
 }
 
 /// A steady-state grid point.
@@ -148,19 +240,28 @@ pub struct GridPoint {
     pub summary: Summary,
 }
 
-/// A speed-step response.
+/// A run of the anti-windup comparison.
 #[derive(Clone, Debug, Serialize)]
 pub struct StepRun {
     /// Variant label.
     pub variant: String,
-    /// Anti-windup on the current PI.
-    pub anti_windup: bool,
-    /// True speed when the step was given \[rpm\].
+    /// Index of the case in the plan.
+    pub case: usize,
+    /// Where anti-windup acts.
+    pub anti_windup: AntiWindup,
+    /// True speed when the measured event came \[rpm\].
     pub from_rpm: f64,
+    /// Largest excursion beyond the command after the event, in the direction of the
+    /// change \[rpm\] (0 if none).
+    pub peak_beyond_rpm: f64,
+    /// Largest drop below the command after the case's first load step \[rpm\] (None
+    /// without a load).
+    pub dip_rpm: Option<f64>,
     /// How long after the step the duty still reached 95 % \[s\] (the wound-up current
     /// loop holding full voltage after the command dropped).
     pub full_duty_after_s: f64,
-    /// Response metrics.
+    /// Response metrics from the event: overshoot is the peak beyond the command in the
+    /// direction of the change (an undershoot for a step down), in % of the change.
     pub response: StepResponse,
     /// Restarts during the run.
     pub restarts: u32,
@@ -203,7 +304,7 @@ pub struct Comparison {
     pub grid: Vec<GridPoint>,
     /// Speed ranges.
     pub ranges: Vec<Range>,
-    /// Speed steps, with and without anti-windup.
+    /// The anti-windup comparison.
     pub steps: Vec<StepRun>,
     /// Load steps.
     pub loads: Vec<LoadRun>,
@@ -219,7 +320,7 @@ pub struct Comparison {
 enum Job {
     Grid(usize, f64),
     Range(usize, range::Meter),
-    Step(usize, bool),
+    Step(usize, usize, AntiWindup),
     Load(usize),
 }
 
@@ -241,6 +342,7 @@ pub fn compare(
 ) -> Result<Comparison, RunError> {
     let wall = Instant::now();
     let mut jobs = Vec::new();
+    let label_of = |v: usize| variants[v].label.clone();
     for v in 0..variants.len() {
         if plan.ranges {
             for &m in &plan.range_meters {
@@ -250,8 +352,13 @@ pub fn compare(
         for &rpm in &plan.grid_rpm {
             jobs.push(Job::Grid(v, rpm));
         }
-        jobs.push(Job::Step(v, true));
-        jobs.push(Job::Step(v, false));
+        if plan.step.variants.contains(&label_of(v)) {
+            for c in 0..plan.step.cases.len() {
+                for aw in AntiWindup::ALL {
+                    jobs.push(Job::Step(v, c, aw));
+                }
+            }
+        }
         jobs.push(Job::Load(v));
     }
     let config_of = |v: usize| {
@@ -294,27 +401,47 @@ pub fn compare(
                 &label(v),
                 m.label,
             )?),
-            Job::Step(v, aw) => {
-                let p = plan.step;
+            Job::Step(v, case, aw) => {
+                let p = &plan.step.cases[case];
                 let mut c = config_of(v);
-                c.control.anti_windup = aw;
+                c.control.anti_windup = aw != AntiWindup::Off;
+                c.control.speed_anti_windup = aw == AntiWindup::Both;
                 let mut sc = Scenario::hold(c, p.start_rpm, p.duration_s);
                 sc.plugin = variants[v].plugin.clone();
-                sc.speed_steps.push((p.beyond_at_s, p.beyond_rpm));
-                sc.speed_steps.push((p.at_s, p.to_rpm));
+                sc.speed_steps = p.speed_steps.clone();
+                sc.load_steps = p.load_steps.clone();
                 sc.speed_record_s = 0.5e-3;
                 let out = run(&sc, |_| {})?;
-                // The step starts from wherever the speed is when it is given.
+                // The response starts from wherever the speed is at the event.
                 let from = out
                     .speed
                     .iter()
                     .take_while(|q| q.0 <= p.at_s)
                     .last()
                     .map_or(p.start_rpm, |q| q.1);
+                let dip_rpm = p.load_steps.iter().find(|l| l.1 != 0.0).map(|l| {
+                    let during: Vec<_> = out
+                        .speed
+                        .iter()
+                        .copied()
+                        .filter(|q| q.0 <= p.at_s)
+                        .collect();
+                    disturbance(&during, l.0, p.to_rpm).dip
+                });
+                let sign = if p.to_rpm >= from { 1.0 } else { -1.0 };
+                let peak_beyond_rpm = out
+                    .speed
+                    .iter()
+                    .filter(|q| q.0 >= p.at_s)
+                    .map(|q| sign * (q.1 - p.to_rpm))
+                    .fold(0.0, f64::max);
                 Done::Step(StepRun {
                     variant: label(v),
+                    case,
+                    peak_beyond_rpm,
                     anti_windup: aw,
                     from_rpm: from,
+                    dip_rpm,
                     full_duty_after_s: held_above(&out.duty, p.at_s, 0.95),
                     response: step_response(&out.speed, p.at_s, from, p.to_rpm),
                     restarts: out.summary.restarts,

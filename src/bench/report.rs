@@ -1,7 +1,7 @@
 //! The comparison as a terminal table and a report folder (JSON, CSV, Markdown, SVG).
 
 use super::svg::{Panel, Series, chart};
-use super::{Comparison, CrossingTrace};
+use super::{AntiWindup, Comparison, CrossingTrace};
 use crate::config::DriveConfig;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -41,8 +41,8 @@ pub const METRIC_DEFINITIONS: &[(&str, &str)] = &[
         "floor: the lowest command the drive holds (verdict `running`, no restart) after being turned down from a running speed; top: the highest it reaches from standstill; found by bisection to 3 % (floor also to 5 rpm), each with the verdict of the failed run beyond it",
     ),
     (
-        "rise / overshoot / settling",
-        "for the speed step out of saturation: 10–90 % rise (or fall) time of the true speed, peak beyond the new command in % of the step, and the time after the step from which the speed stays within ±2 % of the command",
+        "anti-windup: overshoot / undershoot / settling",
+        "for each anti-windup case, from its event (a speed step, or the release of a load): the largest excursion of the true speed beyond the command in the direction of the change (above it after a step up or a release, below it after a step down), in rpm and in % of the change, and the time after the event from which the speed stays within ±2 % of the command",
     ),
     (
         "load dip / recovery",
@@ -90,10 +90,12 @@ pub fn terminal_table(c: &Comparison) -> String {
         let failed = at_any
             .filter(|g| !holds(&g.summary))
             .map(|g| g.summary.verdict.as_str().to_string());
-        let step = |aw: bool| {
+        // The release of a saturated voltage command: the first case stepping down.
+        let release = c.plan.step.cases.iter().position(|k| k.is_step_down());
+        let step = |aw: AntiWindup| {
             c.steps
                 .iter()
-                .find(|x| x.variant == v.label && x.anti_windup == aw)
+                .find(|x| x.variant == v.label && Some(x.case) == release && x.anti_windup == aw)
                 .map_or("–".into(), |x| {
                     format!("{:.0}", x.full_duty_after_s * 1e3)
                 })
@@ -119,7 +121,7 @@ pub fn terminal_table(c: &Comparison) -> String {
                 g.summary.torque_ripple_nm * 1e3
             )),
             at.map_or("–".into(), |g| format!("{:.3}", g.summary.current_rms_a)),
-            format!("{} / {}", step(true), step(false)),
+            format!("{} / {}", step(AntiWindup::Current), step(AntiWindup::Off)),
             load.map_or("–".into(), |l| format!(
                 "{:.0} / {}",
                 l.response.dip,
@@ -129,10 +131,8 @@ pub fn terminal_table(c: &Comparison) -> String {
     }
     let _ = writeln!(
         s,
-        "grid ok: speeds of {:?} rpm held within 2 % without restart; err/ripple/I at {trace_rpm:.0} rpm; step to {:.0} rpm out of saturation ({:.0} rpm commanded before); load {:.1} mN·m at {:.0} rpm",
+        "grid ok: speeds of {:?} rpm held within 2 % without restart; err/ripple/I at {trace_rpm:.0} rpm; full duty: after the step down out of full duty, anti-windup on the current PI / off; load {:.1} mN·m at {:.0} rpm",
         c.plan.grid_rpm,
-        c.plan.step.to_rpm,
-        c.plan.step.beyond_rpm,
         c.plan.load.1 * 1e3,
         c.plan.load.0
     );
@@ -210,30 +210,37 @@ fn grid_csv(c: &Comparison) -> String {
 }
 
 fn speed_step_chart(c: &Comparison) -> String {
-    let panel = |aw: bool| Panel {
-        y_label: format!("speed [rpm], anti-windup {}", if aw { "on" } else { "off" }),
-        series: c
-            .steps
-            .iter()
-            .filter(|s| s.anti_windup == aw)
-            .map(|s| Series {
-                name: s.variant.clone(),
-                points: s.speed.clone(),
-                steps: false,
-            })
-            .collect(),
-    };
+    let panels: Vec<Panel> = c
+        .plan
+        .step
+        .cases
+        .iter()
+        .enumerate()
+        .map(|(k, case)| {
+            let from = case
+                .load_steps
+                .first()
+                .map_or(case.at_s, |l| l.0.min(case.at_s))
+                - 0.5;
+            Panel {
+                y_label: format!("{} [rpm]", case.name),
+                series: c
+                    .steps
+                    .iter()
+                    .filter(|s| s.case == k)
+                    .map(|s| Series {
+                        name: format!("{}, anti-windup {}", s.variant, s.anti_windup.as_str()),
+                        points: s.speed.iter().copied().filter(|p| p.0 >= from).collect(),
+                        steps: false,
+                    })
+                    .collect(),
+            }
+        })
+        .collect();
     chart(
-        &format!(
-            "{:.0} rpm, {:.0} rpm (beyond reach) at {} s, step to {:.0} rpm at {} s",
-            c.plan.step.start_rpm,
-            c.plan.step.beyond_rpm,
-            c.plan.step.beyond_at_s,
-            c.plan.step.to_rpm,
-            c.plan.step.at_s
-        ),
+        "Anti-windup: off, on the current PI (the chip's), on both PIs",
         "time [s]",
-        &[panel(true), panel(false)],
+        &panels,
     )
 }
 
@@ -485,26 +492,33 @@ fn markdown(c: &Comparison, config: &DriveConfig, crossings: &[String]) -> Strin
     }
     let _ = writeln!(
         s,
-        "\n## Speed step to {:.0} rpm out of saturation\n\nThe drive is commanded {:.0} rpm (beyond its reach: full voltage, the current loop saturated) at {} s, then {:.0} rpm at {} s; the response is measured from that step, starting at the speed reached. The chip has no braking state: after a step down the rotor coasts on friction, so the speed takes seconds to fall and the fall and settling times are usually not reached within the run (shown as \"–\").\n\n| strategy | anti-windup | from rpm | full duty after ms | fall s | overshoot % | settling s | restarts |\n|---|---|---:|---:|---:|---:|---:|---:|",
-        c.plan.step.to_rpm,
-        c.plan.step.beyond_rpm,
-        c.plan.step.beyond_at_s,
-        c.plan.step.to_rpm,
-        c.plan.step.at_s
+        "\n## Anti-windup\n\nEach case drives a PI into saturation; it runs with anti-windup off, on the current PI only (the chip's) and on both PIs (the speed PI's is a model option). The current PI saturates only where the current limit needs more than full voltage (near top speed); below that the speed PI is the one that saturates, at the current limit, and the chip's anti-windup cannot act. Peak: beyond the command in the direction of the change (an undershoot after a step down). The chip has no braking state: after a step down the rotor coasts on friction.\n"
     );
-    for x in &c.steps {
+    for (k, case) in c.plan.step.cases.iter().enumerate() {
         let _ = writeln!(
             s,
-            "| {} | {} | {:.0} | {:.1} | {} | {:.1} | {} | {} |",
-            x.variant,
-            if x.anti_windup { "on" } else { "off" },
-            x.from_rpm,
-            x.full_duty_after_s * 1e3,
-            opt(x.response.rise_s, 1.0, 3),
-            x.response.overshoot_pct,
-            opt(x.response.settling_s, 1.0, 3),
-            x.restarts
+            "### {}\n\nSaturates: {}. Measured from {} s.\n\n| strategy | anti-windup | from rpm | load dip rpm | full duty after ms | peak {} rpm | peak % | settling s | restarts |\n|---|---|---:|---:|---:|---:|---:|---:|---:|",
+            case.name,
+            case.saturates,
+            case.at_s,
+            if case.is_step_down() { "under" } else { "over" }
         );
+        for x in c.steps.iter().filter(|x| x.case == k) {
+            let _ = writeln!(
+                s,
+                "| {} | {} | {:.0} | {} | {:.1} | {:.0} | {:.1} | {} | {} |",
+                x.variant,
+                x.anti_windup.as_str(),
+                x.from_rpm,
+                opt(x.dip_rpm, 1.0, 0),
+                x.full_duty_after_s * 1e3,
+                x.peak_beyond_rpm,
+                x.response.overshoot_pct,
+                opt(x.response.settling_s, 1.0, 3),
+                x.restarts
+            );
+        }
+        let _ = writeln!(s);
     }
     let _ = writeln!(
         s,

@@ -162,6 +162,8 @@ impl Chip {
             },
         };
         let top = carrier_top.max(1);
+        // The speed PI's integrator is clamped at the current limit (no headroom), which
+        // caps its windup there; back-calculation on it is a model option, not the chip's.
         let speed_pi = Pi::new(
             PiGains {
                 kp: control.speed_kp,
@@ -169,7 +171,11 @@ impl Chip {
                 lo: 0.0,
                 hi: control.current_limit_a,
                 ui_hi: control.current_limit_a,
-                k_s: 0.0,
+                k_s: if control.speed_anti_windup {
+                    control.speed_anti_windup_gain
+                } else {
+                    0.0
+                },
             },
             0.0,
         );
@@ -413,6 +419,13 @@ impl Chip {
     }
 
     /// Speed PI → current command; current PI → voltage command (SPEC §6).
+    ///
+    /// Which one saturates: the current PI only where `current_limit_a` needs more than
+    /// full voltage (near top speed, ≈ 9000 rpm and up on the built-in motor); below that
+    /// it has duty to spare, so the chip's anti-windup (on it alone) cannot act. The speed
+    /// PI saturates at `current_limit_a` when Kp·e + ui exceeds it (errors beyond ≈ 5000
+    /// rpm, or a load held long), and at 0 on every step down; its integrator is clamped
+    /// at both, so it winds only up to the limit, and `speed_anti_windup` trims that.
     ///
     /// Until the first FG speed measurement (10 FG periods after hand-over) there is no
     /// speed to control; the current command is held at `start_current_a`, and the speed PI

@@ -50,11 +50,23 @@ pub struct ControlParams {
     /// `current_limit_a`. Too much and the shifter, which times each commutation from the
     /// previous 60° interval, falls behind a rotor accelerating from near standstill.
     pub start_current_a: f64,
-    /// Back-calculation anti-windup on the current PI. Default true.
+    /// Back-calculation anti-windup on the current PI (the chip's, SPEC §6). Default true.
+    /// It acts only where the voltage command saturates at full duty, i.e. near top speed:
+    /// below it the current PI reaches `current_limit_a` with duty to spare.
     pub anti_windup: bool,
-    /// Back-calculation gain k_s: the integrator input is reduced by k_s·(uc − limit)
-    /// \[1\]. Default 32 (the chip's). Rule: 0..=1024.
+    /// Back-calculation gain k_s of the current PI: the integrator input is reduced by
+    /// k_s·(uc − limit) \[1\]. Default 32 (the chip's). Rule: 0..=1024.
     pub anti_windup_gain: f64,
+    /// Back-calculation anti-windup on the speed PI, at the current-command limit
+    /// `current_limit_a`. Default false: the chip has none there (its speed PI only clamps
+    /// the integrator at the limit, SPEC §6), yet with the model's current limit this is
+    /// the PI that saturates in large speed steps and overloads.
+    pub speed_anti_windup: bool,
+    /// Back-calculation gain of the speed PI \[1\]: ui(k) = sat(ui(k−1) + Ki·e −
+    /// k·(uc − limit)). Default 1: the integrator lands exactly on limit − Kp·e, the output
+    /// on the limit; above 2 the per-update correction overshoots that point by more than
+    /// the excess it removes. Rule: 0 < x ≤ 2.
+    pub speed_anti_windup_gain: f64,
     /// Voltage command during alignment and start-up [fraction of the carrier top, 0..1].
     /// Default 0.2 (≈ 0.5 A into a locked phase pair at 12 V). Rule: 0 < x ≤ 1.
     pub startup_duty: f64,
@@ -113,6 +125,8 @@ impl Default for ControlParams {
             start_current_a: 0.15,
             anti_windup: true,
             anti_windup_gain: 32.0,
+            speed_anti_windup: false,
+            speed_anti_windup_gain: 1.0,
             startup_duty: 0.2,
             align_s: [0.7, 0.038, 0.015],
             handover_t60_s: 0.015,
@@ -165,6 +179,13 @@ impl ControlParams {
             1024.0,
             "must be in 0..=1024",
         )?;
+        if !(self.speed_anti_windup_gain > 0.0 && self.speed_anti_windup_gain <= 2.0) {
+            return Err(ParamError::new(
+                "control.speed_anti_windup_gain",
+                self.speed_anti_windup_gain,
+                "must be in (0, 2] (above 2 each update over-corrects the integrator)",
+            ));
+        }
         if !(self.startup_duty > 0.0 && self.startup_duty <= 1.0) {
             return Err(ParamError::new(
                 "control.startup_duty",

@@ -18,6 +18,18 @@
 //! limit", the chip's 4 096 000). Mirrored at the lower limit, a k_s ≫ 1 turns a large
 //! negative proportional term (one high current sample) into a k_s-fold *positive* kick
 //! that flings the integrator to full duty; there the integrator clamp alone suffices.
+//!
+//! Per update, with excess x = uc(k) − hi > 0, the rule gives
+//! ui(k) = hi − Kp·e(k) − (k_s − 1)·x: k_s = 1 puts the output exactly on the limit
+//! (tracking), 0 < k_s < 2 converges to it, and larger k_s lands (k_s − 1)·x *below* it.
+//! The chip's k_s = 32 on the current PI thus turns every update with an excess into a
+//! cut: even under a constant error the output climbs Ki·e per update to the limit, is cut
+//! (k_s − 1)·x ≤ 31·Ki·e below it, and climbs again (a sawtooth). At full duty the current
+//! error is one ADC sample of a commutation-rippled shunt current, and a low sample (large
+//! e, large x) cuts deepest. A wound-up integrator (≈ 2× the limit, anti-windup off) keeps
+//! the output at full duty through all of it, which is why with anti-windup the mean duty,
+//! and so the top speed, is lower at full voltage: the cost of the chip's gain, not of
+//! anti-windup as such (k_s = 1 keeps the output on the limit under a constant error).
 
 /// Gains, limits and anti-windup of one PI.
 #[derive(Copy, Clone, Debug, PartialEq)]
@@ -162,6 +174,101 @@ mod tests {
         let mut p = Pi::new(gains(32.0), 2.0);
         assert_eq!(p.update(-3.0), 0.0);
         assert_eq!(p.integrator(), 0.5);
+    }
+
+    #[test]
+    fn back_calculation_lands_k_s_minus_one_excesses_below_the_tracking_point() {
+        let g = |k_s| PiGains {
+            ui_hi: 20.0,
+            ..gains(k_s)
+        };
+        // ui = 9, e = 0.5: integ 9.25, uc 10.25, x = 0.25. Tracking point hi − Kp·e = 9.
+        let mut one = Pi::new(g(1.0), 9.0);
+        assert_eq!(one.update(0.5), 10.0);
+        assert_eq!(one.integrator(), 9.0, "k_s = 1: exactly hi − Kp·e");
+        let mut chip = Pi::new(g(32.0), 9.0);
+        assert_eq!(chip.update(0.5), 10.0);
+        // 9.25 − 32·0.25 = 1.25 = 9 − 31·0.25.
+        assert_eq!(chip.integrator(), 1.25, "k_s = 32: 31 excesses below it");
+        // The same error again: the output has fallen from the limit to 1.25 + 0.25 + 1.
+        assert_eq!(chip.update(0.5), 2.5);
+        assert_eq!(one.update(0.5), 10.0);
+    }
+
+    #[test]
+    fn one_large_error_sample_cuts_a_tracking_output_but_not_a_wound_up_one() {
+        // Saturated with e = 0.5 (kp 2, ki 0.5, hi 10), then one sample of e = 1.5 (a low
+        // current reading), then e = 0.5 again: the output right after the spike.
+        let run = |k_s: f64| {
+            let mut p = Pi::new(
+                PiGains {
+                    ui_hi: 20.5,
+                    ..gains(k_s)
+                },
+                0.0,
+            );
+            for _ in 0..200 {
+                p.update(0.5);
+            }
+            let settled = p.integrator();
+            p.update(1.5);
+            (settled, p.update(0.5))
+        };
+        // Off: the integrator winds to its register's 20.5 and the output never leaves 10.
+        assert_eq!(run(0.0), (20.5, 10.0));
+        // k_s = 1: settled at hi − Kp·e = 9; the spike sets it to 10 − 2·1.5 = 7, so the
+        // next output is 7 + 0.25 + 1 = 8.25.
+        assert_eq!(run(1.0), (9.0, 8.25));
+    }
+
+    #[test]
+    fn the_chips_k_s_turns_a_constant_saturating_error_into_a_sawtooth() {
+        // k_s = 32, e = 0.5 throughout (kp 2, ki 0.5, hi 10), from ui = 0. Below the limit
+        // ui climbs 0.25 per update; uc = ui + 1.25 first exceeds 10 from ui = 9 (x = 0.25),
+        // which sets ui = 9.25 − 8 = 1.25. From there the outputs are 2.5, 2.75, …, 10.0
+        // (31 updates) and 10 at the next excess, which sets ui = 1.25 again: period 32,
+        // mean (31·2.5 + 0.25·465 + 10)/32 = 203.75/32 = 6.367 where k_s = 1 holds 10.
+        let mut chip = Pi::new(gains(32.0), 0.0);
+        let mut one = Pi::new(gains(1.0), 0.0);
+        for _ in 0..37 {
+            chip.update(0.5);
+            one.update(0.5);
+        }
+        assert_eq!(chip.integrator(), 1.25, "first cut");
+        let (mut sum, mut cuts) = (0.0, 0);
+        for _ in 0..32 * 10 {
+            sum += chip.update(0.5);
+            assert_eq!(one.update(0.5), 10.0);
+            if chip.integrator() == 1.25 {
+                cuts += 1;
+            }
+        }
+        assert_eq!(cuts, 10, "one cut every 32 updates");
+        assert!(
+            (sum / 320.0 - 203.75 / 32.0).abs() < 1e-9,
+            "{}",
+            sum / 320.0
+        );
+    }
+
+    #[test]
+    fn at_a_limit_without_headroom_the_clamp_still_holds_the_output_saturated() {
+        // The speed PI: integrator clamped at the output limit (ui_hi = hi = 10).
+        let mut clamp = Pi::new(gains(0.0), 0.0);
+        let mut track = Pi::new(gains(1.0), 0.0);
+        for _ in 0..100 {
+            clamp.update(3.0);
+            track.update(3.0);
+        }
+        // Clamp: ui = 10. Tracking: ui = hi − Kp·e = 10 − 6 = 4.
+        assert_eq!((clamp.integrator(), track.integrator()), (10.0, 4.0));
+        // The error shrinks to 1 (the speed approaches the command): clamped, uc = 2 + 10.5
+        // stays above the limit; tracking, uc = 2 + 4.5 = 6.5 leaves it at once.
+        assert_eq!(clamp.update(1.0), 10.0);
+        assert_eq!(track.update(1.0), 6.5);
+        // Past the command (e = −1) the clamped one still pushes 10 − 2 − 0.5 = 7.5.
+        assert_eq!(clamp.update(-1.0), 7.5);
+        assert_eq!(track.update(-1.0), 2.0);
     }
 
     #[test]
