@@ -33,6 +33,10 @@ pub struct Scenario {
     pub plugin: Option<PluginLibrary>,
     /// How the run is judged from the true rotor.
     pub verdict_rule: VerdictRule,
+    /// Cut-off of the low-frequency torque ripple, the vibration proxy \[Hz\]: the torque
+    /// is averaged over blocks of 1/f_c (a boxcar, whose first null is at f_c) before its
+    /// standard deviation is taken. Default 2000.
+    pub torque_lowpass_hz: f64,
 }
 
 /// Which trace rows to produce.
@@ -62,6 +66,7 @@ impl Scenario {
             speed_record_s: 1e-3,
             plugin: None,
             verdict_rule: VerdictRule::default(),
+            torque_lowpass_hz: 2000.0,
         }
     }
 
@@ -122,6 +127,13 @@ impl Scenario {
                 "must be 0.02 µs ..= 1 s",
             )?;
         }
+        drive_core::error::check_range(
+            "torque_lowpass_hz",
+            self.torque_lowpass_hz,
+            1.0,
+            1e6,
+            "must be in 1..=1e6 Hz (blocks of at least one µs)",
+        )?;
         drive_core::error::check_positive("speed_record_s", self.speed_record_s)
     }
 }
@@ -244,15 +256,31 @@ pub struct Summary {
     /// Standard deviation of the torque over the window [N·m], exact: from ∫Te dt and
     /// ∫Te² dt.
     pub torque_ripple_nm: f64,
+    /// Low-frequency torque ripple, the vibration proxy [N·m]: standard deviation of the
+    /// torque's means over consecutive blocks of 1/`torque_lowpass_hz` in the window (exact
+    /// block means, from the plant's ∫Te dt). What a spindle's structure feels; the
+    /// full-band figure is dominated by PWM and commutation ripple it filters out.
+    pub torque_ripple_lf_nm: f64,
+    /// The cut-off of `torque_ripple_lf_nm` \[Hz\].
+    pub torque_lowpass_hz: f64,
     /// Phase-current RMS over the window, √(mean(i_u² + i_v² + i_w²)/3) \[A\], exact: from
     /// the copper loss R·Σi² integrated by the plant.
     pub current_rms_a: f64,
+    /// Largest phase-current magnitude in the window \[A\] (currents change monotonically
+    /// between the engine's stops at PWM edges, commutations and diode events, so their
+    /// extremes fall on those stops).
+    pub current_peak_a: f64,
+    /// Commutation surge: the mean, over the states entered in the window, of the largest
+    /// phase-current magnitude during the state \[A\].
+    pub commutation_peak_a: f64,
     /// What the run came to, judged from the true rotor (see [`crate::verdict`]).
     pub verdict: crate::verdict::Verdict,
     /// Why, in one line.
     pub verdict_reason: String,
     /// When the rotor first followed the commutation (see [`crate::verdict`]) \[s\].
     pub started_at_s: Option<f64>,
+    /// The first commutation out of synchronism after that: (t \[s\], true speed \[rpm\]).
+    pub sync_lost_at: Option<(f64, f64)>,
     /// Restarts (step-miss or supervisor errors) during the whole run.
     pub restarts: u32,
     /// Whether the controller *believes* it ended in closed-loop running (its mode; the
@@ -329,6 +357,14 @@ pub fn run(sc: &Scenario, mut on_row: impl FnMut(&TraceRow)) -> Result<Outcome, 
     };
     let mut angles = AngleErrors::default();
     let mut witness = Witness::new(sc.verdict_rule, table.states_per_turn());
+    // Torque block means for the low-frequency ripple: blocks of 1/f_c on whole ticks.
+    let block = Ticks(((1.0 / sc.torque_lowpass_hz / Ticks(1).seconds()).round() as u64).max(1));
+    let mut block_start: Option<f64> = None; // ∫Te dt at the last block boundary
+    let mut blocks = TimeStats::default();
+    let mut n_blocks = 0u64;
+    let (mut current_peak, mut state_peak) = (0.0f64, 0.0f64);
+    let mut state_peaks = (0u64, 0.0f64);
+    let (mut trace_on, mut steady_on) = (false, false);
     let mut record = Vec::with_capacity((sc.duration_s / sc.speed_record_s) as usize + 2);
     let mut duty = Vec::with_capacity(record.capacity());
     let top = f64::from(eng.carrier().top);
@@ -342,7 +378,8 @@ pub fn run(sc: &Scenario, mut on_row: impl FnMut(&TraceRow)) -> Result<Outcome, 
     let traced = sc
         .trace
         .iter()
-        .flat_map(|t| [(t.from_s, Event::TraceOn), (t.to_s, Event::TraceOff)]);
+        .flat_map(|t| [(t.from_s, Event::TraceOn), (t.to_s, Event::TraceOff)])
+        .chain([(steady_from, Event::SteadyOn)]);
     let mut events: Vec<(f64, Event)> = sc
         .speed_steps
         .iter()
@@ -375,7 +412,7 @@ pub fn run(sc: &Scenario, mut on_row: impl FnMut(&TraceRow)) -> Result<Outcome, 
                 if commutated {
                     let (theta, boundary) =
                         (o.theta_e.to_degrees(), table.state_start_deg(s.state));
-                    witness.commutation(t, theta, boundary, steady);
+                    witness.commutation(t, theta, boundary, o.speed_rpm, steady);
                     if steady {
                         angles.push(theta, boundary);
                     }
@@ -388,6 +425,23 @@ pub fn run(sc: &Scenario, mut on_row: impl FnMut(&TraceRow)) -> Result<Outcome, 
                 if steady {
                     speed.push(t, o.speed_rpm);
                     window.get_or_insert_with(|| integrals(&e.plant));
+                    let i_max = o.i.u.abs().max(o.i.v.abs()).max(o.i.w.abs());
+                    current_peak = current_peak.max(i_max);
+                    if commutated {
+                        state_peaks.0 += 1;
+                        state_peaks.1 += state_peak;
+                        state_peak = i_max;
+                    }
+                    state_peak = state_peak.max(i_max);
+                    if e.now().0 % block.0 == 0 {
+                        let ti = e.plant.torque_integrals().0;
+                        if let Some(t0) = block_start {
+                            // Equal blocks: a sample-and-hold of one block per unit time.
+                            blocks.push(n_blocks as f64, (ti - t0) / block.seconds());
+                            n_blocks += 1;
+                        }
+                        block_start = Some(ti);
+                    }
                 }
             }
             last_state = s.state;
@@ -406,10 +460,19 @@ pub fn run(sc: &Scenario, mut on_row: impl FnMut(&TraceRow)) -> Result<Outcome, 
         match event {
             Event::Speed(rpm) => eng.controller.set_speed_ref(rpm),
             Event::Load(nm) => eng.plant.set_load_torque(nm),
-            Event::TraceOn => eng.set_sample_period(trace.map_or(Ticks::NEVER, |t| t.0)),
-            Event::TraceOff => eng.set_sample_period(Ticks::NEVER),
+            Event::TraceOn => trace_on = true,
+            Event::TraceOff => trace_on = false,
+            Event::SteadyOn => steady_on = true,
             Event::End => {}
         }
+        // Stops at trace rows and torque block boundaries: every multiple of both.
+        let rows = trace.filter(|_| trace_on).map(|t| t.0);
+        let blocks = steady_on.then_some(block);
+        eng.set_sample_period(match (rows, blocks) {
+            (Some(a), Some(b)) => Ticks(gcd(a.0, b.0)),
+            (Some(a), None) | (None, Some(a)) => a,
+            (None, None) => Ticks::NEVER,
+        });
     }
     let wall_s = wall.elapsed().as_secs_f64();
     let (torque_mean, torque_ms, current_ms): (f64, f64, f64) = match window {
@@ -450,9 +513,18 @@ pub fn run(sc: &Scenario, mut on_row: impl FnMut(&TraceRow)) -> Result<Outcome, 
             // Rounding may leave the variance a hair below zero when the torque is steady.
             torque_ripple_nm: (torque_ms - torque_mean * torque_mean).max(0.0).sqrt(),
             current_rms_a: current_ms.max(0.0).sqrt(),
+            torque_ripple_lf_nm: blocks.std_dev(),
+            torque_lowpass_hz: sc.torque_lowpass_hz,
+            current_peak_a: current_peak,
+            commutation_peak_a: if state_peaks.0 > 0 {
+                state_peaks.1 / state_peaks.0 as f64
+            } else {
+                0.0
+            },
             verdict,
             verdict_reason: reason,
             started_at_s: witness.started_at_s(),
+            sync_lost_at: witness.sync_lost(),
             restarts: s.restarts,
             chip_running: s.mode == Mode::Running,
             chip_speed_rpm: f64::from(s.speed_est_rpm),
@@ -480,7 +552,12 @@ enum Event {
     Load(f64),
     TraceOn,
     TraceOff,
+    SteadyOn,
     End,
+}
+
+fn gcd(a: u64, b: u64) -> u64 {
+    if b == 0 { a } else { gcd(b, a % b) }
 }
 
 fn tick_of(t_s: f64) -> Ticks {

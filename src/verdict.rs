@@ -139,14 +139,54 @@ pub struct Judgement {
     pub reason: String,
 }
 
+/// Whether the commutation follows the true rotor now: the length of the current run of
+/// consecutive commutations within ±`sync_error_deg` of their table boundary.
+#[derive(Copy, Clone, Debug, Default, PartialEq)]
+pub struct SyncStreak {
+    sync_error_deg: f64,
+    needed: u32,
+    streak: u32,
+}
+
+impl SyncStreak {
+    /// In synchronism after `turns` electrical turns of a table of `states_per_turn`
+    /// states, each commutation within ±`sync_error_deg`.
+    pub fn new(sync_error_deg: f64, turns: u32, states_per_turn: u32) -> Self {
+        SyncStreak {
+            sync_error_deg,
+            needed: turns.max(1) * states_per_turn.max(1),
+            streak: 0,
+        }
+    }
+
+    /// A commutation into a state starting at `boundary_deg` with the rotor at the true
+    /// angle `theta_deg`; returns whether it was within the error.
+    pub fn commutation(&mut self, theta_deg: f64, boundary_deg: f64) -> bool {
+        let ok = wrap_deg(theta_deg - boundary_deg).abs() <= self.sync_error_deg;
+        self.streak = if ok { self.streak + 1 } else { 0 };
+        ok
+    }
+
+    /// Whether the last commutations, enough for the turns asked, were all in synchronism.
+    pub fn in_sync(&self) -> bool {
+        self.streak >= self.needed
+    }
+
+    /// Forgets the streak (the controller left closed loop).
+    pub fn reset(&mut self) {
+        self.streak = 0;
+    }
+}
+
 /// What the run showed, collected while it runs (see [`Witness::commutation`] and
 /// [`Witness::instant`]) and judged at its end.
 #[derive(Clone, Debug, Default)]
 pub struct Witness {
     rule: VerdictRule,
     states_per_turn: u32,
-    streak: u32,
+    streak: SyncStreak,
     started_at_s: Option<f64>,
+    sync_lost: Option<(f64, f64)>,
     handed_over: bool,
     non_finite_at_s: Option<f64>,
     window_commutations: u64,
@@ -180,18 +220,27 @@ impl Witness {
         Witness {
             rule,
             states_per_turn: states_per_turn.max(1),
+            streak: SyncStreak::new(rule.sync_error_deg, rule.started_turns, states_per_turn),
             ..Witness::default()
         }
     }
 
     /// A commutation at `t_s` into a state starting at `boundary_deg`, with the rotor at
-    /// the true angle `theta_deg`; `in_window` when inside the steady-state window.
-    pub fn commutation(&mut self, t_s: f64, theta_deg: f64, boundary_deg: f64, in_window: bool) {
-        let ok = wrap_deg(theta_deg - boundary_deg).abs() <= self.rule.sync_error_deg;
-        self.streak = if ok { self.streak + 1 } else { 0 };
-        if self.started_at_s.is_none()
-            && self.streak >= self.rule.started_turns * self.states_per_turn
-        {
+    /// the true angle `theta_deg` and speed `rpm`; `in_window` when inside the steady-state
+    /// window.
+    pub fn commutation(
+        &mut self,
+        t_s: f64,
+        theta_deg: f64,
+        boundary_deg: f64,
+        rpm: f64,
+        in_window: bool,
+    ) {
+        let ok = self.streak.commutation(theta_deg, boundary_deg);
+        if !ok && self.started_at_s.is_some() && self.sync_lost.is_none() {
+            self.sync_lost = Some((t_s, rpm));
+        }
+        if self.started_at_s.is_none() && self.streak.in_sync() {
             self.started_at_s = Some(t_s);
         }
         if in_window {
@@ -223,6 +272,12 @@ impl Witness {
     /// When the rotor first followed the commutation \[s\].
     pub fn started_at_s(&self) -> Option<f64> {
         self.started_at_s
+    }
+
+    /// The first commutation out of synchronism after the start: (t \[s\], true speed
+    /// \[rpm\]). Where a drive turned down lost its rotor.
+    pub fn sync_lost(&self) -> Option<(f64, f64)> {
+        self.sync_lost
     }
 
     /// The verdict.
@@ -359,6 +414,7 @@ mod tests {
                 t,
                 30.0 * (k % 12) as f64 + err[k % err.len()],
                 30.0 * (k % 12) as f64,
+                rpm,
                 true,
             );
         }
@@ -384,7 +440,7 @@ mod tests {
         let mut w = witness(3000.0, &[0.0], 0.1);
         for k in 0..3600 {
             let e = if k % 4 == 0 { 100.0 } else { 1.0 };
-            w.commutation(2.1 + k as f64 / 3600.0, e, 0.0, true);
+            w.commutation(2.1 + k as f64 / 3600.0, e, 0.0, 3000.0, true);
         }
         let j = w.judge(&ending(3000.0));
         assert_eq!(j.verdict, Verdict::LostSync, "{}", j.reason);
@@ -398,7 +454,7 @@ mod tests {
         // One turn's states more is within the slack.
         let mut w = witness(3000.0, &[0.0], 1.0);
         for k in 0..12 {
-            w.commutation(3.0, 30.0 * k as f64, 30.0 * k as f64, true);
+            w.commutation(3.0, 30.0 * k as f64, 30.0 * k as f64, 3000.0, true);
         }
         assert_eq!(w.judge(&ending(3000.0)).verdict, Verdict::Running);
     }
@@ -409,7 +465,7 @@ mod tests {
         let mut w = Witness::new(VerdictRule::default(), 12);
         for k in 0..47 {
             w.instant(1.0, true, 0, true, false);
-            w.commutation(1.0, if k == 23 { 90.0 } else { 0.0 }, 0.0, false);
+            w.commutation(1.0, if k == 23 { 90.0 } else { 0.0 }, 0.0, 0.0, false);
         }
         let j = w.judge(&ending(0.0));
         assert_eq!(j.verdict, Verdict::NotStarted, "{}", j.reason);
@@ -420,8 +476,16 @@ mod tests {
                 .verdict,
             Verdict::NotStarted
         );
-        w.commutation(1.0, 0.0, 0.0, false);
+        w.commutation(1.0, 0.0, 0.0, 0.0, false);
         assert_eq!(w.started_at_s(), Some(1.0));
+        assert_eq!(w.sync_lost(), None);
+        w.commutation(1.5, 45.0, 0.0, 250.0, false);
+        w.commutation(1.6, 90.0, 0.0, 200.0, false);
+        assert_eq!(
+            w.sync_lost(),
+            Some((1.5, 250.0)),
+            "the first slip after the start"
+        );
         assert_eq!(w.judge(&ending(299.0)).verdict, Verdict::Stalled);
     }
 

@@ -4,9 +4,10 @@
 use crate::variables::{Input, Output, Role, Text, table};
 use bldc_drive::DriveConfig;
 use bldc_drive::drive::{DriveEngine, build, build_plugin};
-use bldc_drive::drive_core::{EngineError, ParamError, Ticks};
+use bldc_drive::drive_core::{EngineError, ParamError, StopReason, Ticks};
 use bldc_drive::strategies::PluginLibrary;
 use bldc_drive::strategies::params::SPEED_CMD_MAX_RPM;
+use bldc_drive::verdict::{SyncStreak, VerdictRule};
 use std::path::{Path, PathBuf};
 
 /// One thing that happened to a drive after it was built; replaying the list on a drive
@@ -31,6 +32,44 @@ pub struct Drive {
     pub events: Vec<Event>,
     /// Inputs in force: speed command, load torque, enable.
     applied: [f64; 3],
+    /// The commutation against the true rotor, for the `in_sync` output.
+    sync: Sync,
+}
+
+/// Whether the last two electrical turns of commutations followed the true rotor (each
+/// within ±30° of its table boundary, as the run verdicts judge synchronism).
+#[derive(Copy, Clone, Debug)]
+struct Sync {
+    streak: SyncStreak,
+    last_state: u8,
+}
+
+impl Sync {
+    fn new(engine: &DriveEngine) -> Self {
+        let rule = VerdictRule::default();
+        let table = engine.controller.table();
+        Sync {
+            streak: SyncStreak::new(
+                rule.sync_error_deg,
+                rule.started_turns,
+                table.states_per_turn(),
+            ),
+            last_state: 0,
+        }
+    }
+
+    /// At an engine stop: a commutation is checked against the true angle there.
+    fn at(&mut self, e: &DriveEngine) {
+        let state = e.controller.status().state;
+        if state == 0 {
+            self.streak.reset();
+        } else if state != self.last_state && self.last_state != 0 {
+            let theta = e.plant.observe().theta_e.to_degrees();
+            let boundary = e.controller.table().state_start_deg(state);
+            self.streak.commutation(theta, boundary);
+        }
+        self.last_state = state;
+    }
 }
 
 /// The config the variable values describe: defaults, then every parameter, then the
@@ -127,6 +166,7 @@ impl Drive {
         let cfg = config_of(values).map_err(|e| e.to_string())?;
         let engine = engine_of(&cfg, texts, resources)?;
         let mut d = Drive {
+            sync: Sync::new(&engine),
             engine,
             built_from: values.to_vec(),
             built_from_texts: texts.to_vec(),
@@ -184,7 +224,12 @@ impl Drive {
     /// Runs the engine to master tick `end` and records the communication point.
     pub fn run_to(&mut self, end: Ticks) -> Result<(), EngineError> {
         self.events.push(Event::RunTo(end.0));
-        self.engine.run_until(end, |_, _| {})
+        let sync = &mut self.sync;
+        self.engine.run_until(end, |e, reason| {
+            if !matches!(reason, StopReason::Diode | StopReason::Sensing) {
+                sync.at(e);
+            }
+        })
     }
 
     /// Replays one recorded event.
@@ -209,6 +254,7 @@ impl Drive {
             built_from_texts: self.built_from_texts.clone(),
             events: self.events.clone(),
             applied: self.applied,
+            sync: self.sync,
         })
     }
 
@@ -229,6 +275,7 @@ impl Drive {
                 Output::Duty => f64::from(st.duty) / top,
                 Output::State => f64::from(st.state),
                 Output::Restarts => f64::from(st.restarts.min(i32::MAX as u32)),
+                Output::InSync => f64::from(u8::from(self.sync.streak.in_sync())),
             };
         }
     }
@@ -278,6 +325,35 @@ mod tests {
             "{e}"
         );
         std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    /// The drive built from the table's start values with some set by name, run to `t_s`;
+    /// returns `in_sync` and the true speed.
+    fn in_sync_after(set: &[(&str, f64)], t_s: f64) -> (f64, f64) {
+        let mut values: Vec<f64> = table().iter().map(|v| v.start().unwrap_or(0.0)).collect();
+        for &(name, x) in set {
+            values[crate::variables::vr_of(name).unwrap() as usize] = x;
+        }
+        let texts = vec![String::new(); table().len()];
+        let mut d = Drive::new(&values, &texts, None).unwrap();
+        d.run_to(Ticks::from_seconds(t_s).unwrap()).unwrap();
+        let mut out = [0.0; 2];
+        d.outputs(&[Output::InSync, Output::SpeedRpm], &mut out);
+        (out[0], out[1])
+    }
+
+    #[test]
+    fn in_sync_follows_the_true_rotor_not_the_chip() {
+        let (sync, rpm) = in_sync_after(&[], 1.5);
+        assert_eq!(sync, 1.0, "nominal drive at {rpm} rpm");
+        // Raised resistance, the chip as published: locked on false crossings, the chip
+        // commutates on while the rotor stands still.
+        let (sync, rpm) = in_sync_after(
+            &[("motor.resistance_ohm", 2.8), ("control.supervisor", 0.0)],
+            1.5,
+        );
+        assert_eq!(sync, 0.0, "locked on false crossings at {rpm} rpm");
+        assert!(rpm.abs() < 100.0, "{rpm}");
     }
 
     #[test]

@@ -345,5 +345,24 @@ pub(crate) fn build_table() -> Vec<Variable> {
         }, "", "Back-calculation anti-windup on the speed PI (not in the chip)"),
         real!("control.speed_anti_windup_gain", control.speed_anti_windup_gain, "1", z, Some(2.0),
             "Back-calculation gain of the speed PI (> 0)"),
+        output("in_sync", Boolean, Output::InSync, "",
+            "True while the last two electrical turns of commutations each fell within ±30° of their table boundary at the true rotor angle: the commutation follows the rotor, whatever the chip believes"),
+        var("control.supervisor", Boolean, Role::Parameter {
+            get: |c| f64::from(u8::from(c.control.supervisor)),
+            set: |c, v| {
+                c.control.supervisor = v != 0.0;
+                Ok(())
+            },
+        }, "", "Plausibility supervisor (not in the published chip): restarts when the measured current could not flow against the back-EMF of the believed speed, or a coast speeds up"),
+        real!("control.supervisor_no_load_rpm", control.supervisor_no_load_rpm, "rpm", Some(100.0), Some(1e6),
+            "No-load speed at full voltage the supervisor assumes"),
+        real!("control.supervisor_emf_fraction", control.supervisor_emf_fraction, "1", z, Some(1.0),
+            "Fraction of the believed back-EMF the applied voltage must reach for a measured current to be plausible (> 0)"),
+        real!("control.supervisor_current_a", control.supervisor_current_a, "A", z, Some(10.0),
+            "Smallest measured current that proves conduction (> 0)"),
+        int!("control.supervisor_updates", control.supervisor_updates, Some(2.0), Some(32.0),
+            "PI updates the supervisor looks back over [count]"),
+        real!("control.supervisor_coast_rise", control.supervisor_coast_rise, "1", Some(0.01), Some(10.0),
+            "Rise of the speed measurement over the lowest of a coast that trips the supervisor"),
     ]
 }

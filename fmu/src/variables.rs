@@ -98,6 +98,8 @@ pub enum Output {
     State,
     /// Restarts so far.
     Restarts,
+    /// 1 while the last two electrical turns of commutations followed the true rotor.
+    InSync,
 }
 
 /// What a variable is and where its value comes from.

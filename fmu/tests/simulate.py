@@ -47,7 +47,7 @@ def main():
     # 4e-4 rpm, 2e-4 deg while the currents took RK4 steps). Hence "within 1e-5 of full
     # scale" below.
     fmi = simulate_fmu(FMU, validate=True, start_time=0.0, stop_time=STOP, output_interval=STEP,
-                       input=signals, output=COLUMNS)
+                       input=signals, output=COLUMNS + ["in_sync"])
     t = fmi["time"]
     check(len(t) == round(STOP / STEP) + 1, f"fmpy simulate: {len(t)} rows")
 
@@ -73,6 +73,9 @@ def main():
     check(float(np.max(s[(t > 2.5) & (t < 3.5)])) > 3960, "reaches 4000 rpm within 1 s of the step")
     check(abs(m2 - 4000) < 0.02 * 4000, f"holds 4000 rpm under load: mean {m2:.0f} over 4.5..5.0 s")
     check(int(fmi["restarts"][-1]) == 0, "no restarts")
+    sync = fmi["in_sync"]
+    check(not bool(np.any(sync[t < 0.7])), "in_sync false while aligning")
+    check(bool(np.all(sync[t >= 1.5])), "in_sync true from 1.5 s on")
     th = fmi["theta_e_deg"]
     check(bool(np.all((th >= 0) & (th < 360))), "theta_e_deg in [0, 360)")
     d = fmi["duty"]

@@ -4,13 +4,16 @@
 //! - **Top speed**: started from standstill with the command; controllable when the verdict
 //!   is `running` with no restart.
 //! - **Floor**: what a drive holds after being turned down from a running speed, as a user
-//!   would: the drive starts at the search's seed speed, is commanded the lower speed at
-//!   [`TURN_DOWN_S`], and is judged over a window of at least 20 electrical turns at that
-//!   speed (1–5 s) after [`SETTLE_S`]; searched down to 0 rpm. Start-up is measured
-//!   separately.
+//!   would: the drive starts at the search's seed speed and from [`TURN_DOWN_S`] its
+//!   command ramps down at [`RAMP_RPM_PER_S`] (slower than the rotor coasts on its
+//!   friction, so the speed loop keeps control; a step down would let the rotor coast past
+//!   the target while the meter catches up) to the lower speed; after [`SETTLE_S`] it is
+//!   judged over a window of at least 20 electrical turns at that speed (1–5 s); searched
+//!   down to 0 rpm. Start-up is measured separately.
 //!
 //! The limit of each bound is the verdict and reason of the failed run just beyond it
-//! (lost synchronism of the guard, a stall, off-speed from the meter or the PWM floor, …).
+//! (lost synchronism of the guard, a stall, off-speed from the meter or the PWM floor, …),
+//! led by where the rotor first slipped out of synchronism, if it did.
 
 use crate::config::DriveConfig;
 use crate::scenario::{RunError, Scenario, Summary, run};
@@ -19,7 +22,7 @@ use serde::Serialize;
 use strategies::PluginLibrary;
 
 /// The criterion, stated in every range result.
-pub const CRITERION: &str = "verdict `running` (commutation in synchronism with the true rotor, true mean speed within 2 % of the command over the steady-state window) and no restart; top speed started from standstill (3 s, window the last 1 s); floor turned down from the seed speed at 1.5 s, settled for 2 s, window 20 electrical turns (1–5 s)";
+pub const CRITERION: &str = "verdict `running` (commutation in synchronism with the true rotor, true mean speed within 2 % of the command over the steady-state window) and no restart; top speed started from standstill (3 s, window the last 1 s); floor turned down from the seed speed by a 1000 rpm/s ramp from 1.5 s, settled for 2 s, window 20 electrical turns (1–5 s)";
 
 /// Highest speed searched \[rpm\] (the 14-bit speed command tops out at 16383).
 pub const SEARCH_MAX_RPM: f64 = 16000.0;
@@ -27,6 +30,11 @@ pub const SEARCH_MAX_RPM: f64 = 16000.0;
 pub const TURN_DOWN_S: f64 = 1.5;
 /// Time the turned-down drive gets to settle before its window \[s\].
 pub const SETTLE_S: f64 = 2.0;
+/// Rate of the turn-down ramp \[rpm/s\]: below the built-in rotor's coast-down rate on
+/// its Coulomb friction alone (0.25 mN·m / 1.7e-6 kg·m² ≈ 1400 rpm/s).
+pub const RAMP_RPM_PER_S: f64 = 1000.0;
+/// Command updates of the ramp \[s\].
+const RAMP_STEP_S: f64 = 0.01;
 /// Relative resolution of the bisection.
 const RESOLUTION: f64 = 0.03;
 /// Absolute resolution of the floor's bisection \[rpm\].
@@ -129,9 +137,14 @@ pub fn held_after_turn_down(
 ) -> Result<(bool, Summary), RunError> {
     let pole_pairs = f64::from(config.motor.poles / 2);
     let window = (20.0 * 60.0 / (rpm * pole_pairs)).clamp(1.0, 5.0);
-    let duration = TURN_DOWN_S + SETTLE_S + window;
+    let ramp_s = (seed_rpm - rpm).max(0.0) / RAMP_RPM_PER_S;
+    let duration = TURN_DOWN_S + ramp_s + SETTLE_S + window;
     let mut sc = Scenario::hold(config.clone(), seed_rpm, duration);
-    sc.speed_steps.push((TURN_DOWN_S, rpm));
+    let steps = (ramp_s / RAMP_STEP_S).ceil() as usize;
+    sc.speed_steps.extend((1..=steps).map(|k| {
+        let dt = k as f64 * RAMP_STEP_S;
+        (TURN_DOWN_S + dt, (seed_rpm - RAMP_RPM_PER_S * dt).max(rpm))
+    }));
     sc.steady_from_s = duration - window;
     sc.plugin = plugin.cloned();
     judge(&sc)
@@ -143,13 +156,19 @@ fn judge(sc: &Scenario) -> Result<(bool, Summary), RunError> {
 }
 
 fn limit(rpm: f64, s: &Summary) -> Limit {
+    let reason = if s.restarts > 0 && s.verdict == Verdict::Running {
+        format!("{} restarts before holding the speed", s.restarts)
+    } else {
+        s.verdict_reason.clone()
+    };
     Limit {
         rpm: rpm.round(),
         verdict: s.verdict,
-        reason: if s.restarts > 0 && s.verdict == Verdict::Running {
-            format!("{} restarts before holding the speed", s.restarts)
-        } else {
-            s.verdict_reason.clone()
+        reason: match s.sync_lost_at {
+            Some((t, at)) => {
+                format!("first out of synchronism at {t:.2} s, {at:.0} rpm (true); then {reason}")
+            }
+            None => reason,
         },
     }
 }
