@@ -120,15 +120,36 @@ pub fn wrap_deg(d: f64) -> f64 {
 }
 
 /// How a signal answered a step of its reference from `from` to `to` at `t_step`.
+///
+/// Over- and undershoot are named by the side of the target, whatever the step's
+/// direction: a step up overshoots (above the target) and may then undershoot on the
+/// rebound; a step down undershoots (below the target) and may then overshoot.
 #[derive(Clone, Debug, Default, PartialEq, Serialize)]
 pub struct StepResponse {
-    /// Time from 10 % to 90 % of the change \[s\] (None if never reached).
-    pub rise_s: Option<f64>,
-    /// Largest excursion beyond `to`, in % of the change (0 if none).
+    /// Time from 10 % to 90 % of the change (a rise for a step up, a fall for a step down)
+    /// \[s\] (None if never reached).
+    pub transition_s: Option<f64>,
+    /// Largest excursion above the target, in % of |to − from| (0 if none): from the step
+    /// on for a step up, after the signal first reached the target for a step down.
     pub overshoot_pct: f64,
+    /// Largest excursion below the target, in % of |to − from| (0 if none): from the step
+    /// on for a step down, after the signal first reached the target for a step up.
+    pub undershoot_pct: f64,
     /// Time after the step after which the signal stays within ±2 % of `to` \[s\] (None if
     /// it is outside the band at the end of the record).
     pub settling_s: Option<f64>,
+}
+
+impl StepResponse {
+    /// The excursion past the target in the direction of the change: the overshoot of a
+    /// step up, the undershoot of a step down [%].
+    pub fn beyond_pct(&self, step_down: bool) -> f64 {
+        if step_down {
+            self.undershoot_pct
+        } else {
+            self.overshoot_pct
+        }
+    }
 }
 
 /// Step-response metrics of samples `(t, x)` (in time order, sample-and-hold) for a step
@@ -136,11 +157,14 @@ pub struct StepResponse {
 /// tolerance the benchmark uses for "holds the speed".
 pub fn step_response(samples: &[(f64, f64)], t_step: f64, from: f64, to: f64) -> StepResponse {
     let span = to - from;
+    let up = span >= 0.0;
     let after = samples.iter().filter(|p| p.0 >= t_step);
+    // Progress toward the target: 0 at `from`, 1 at `to`, > 1 beyond it.
     let frac = |x: f64| if span != 0.0 { (x - from) / span } else { 1.0 };
     let mut t10 = None;
     let mut t90 = None;
-    let mut peak: f64 = 0.0;
+    let (mut beyond, mut rebound): (f64, f64) = (0.0, 0.0);
+    let mut reached = false;
     let mut last_out = None;
     let band = 0.02 * to.abs();
     for &(t, x) in after {
@@ -151,7 +175,11 @@ pub fn step_response(samples: &[(f64, f64)], t_step: f64, from: f64, to: f64) ->
         if t90.is_none() && f >= 0.9 {
             t90 = Some(t);
         }
-        peak = peak.max(f - 1.0);
+        beyond = beyond.max(f - 1.0);
+        reached |= f >= 1.0;
+        if reached {
+            rebound = rebound.max(1.0 - f);
+        }
         if (x - to).abs() > band {
             last_out = Some(t);
         }
@@ -165,9 +193,15 @@ pub fn step_response(samples: &[(f64, f64)], t_step: f64, from: f64, to: f64) ->
         }
         Some(_) => None,
     };
+    let (over, under) = if up {
+        (beyond, rebound)
+    } else {
+        (rebound, beyond)
+    };
     StepResponse {
-        rise_s: t10.zip(t90).map(|(a, b)| b - a),
-        overshoot_pct: 100.0 * peak,
+        transition_s: t10.zip(t90).map(|(a, b)| b - a),
+        overshoot_pct: 100.0 * over,
+        undershoot_pct: 100.0 * under,
         settling_s,
     }
 }
@@ -270,8 +304,18 @@ mod tests {
             })
             .collect();
         let r = step_response(&samples, 1.0, 1000.0, 2000.0);
-        let expect_os = 100.0 * (-PI * z / (1.0 - z * z).sqrt()).exp();
-        assert!((r.overshoot_pct - expect_os).abs() < 0.01, "{r:?}");
+        // Extremes at t_k = kπ/ωd, |y − 1| = exp(−kπζ/√(1−ζ²)): the first (16.30 %) above
+        // the target, the second (2.66 %) below it.
+        let peak = |k: f64| 100.0 * (-k * PI * z / (1.0 - z * z).sqrt()).exp();
+        assert!((r.overshoot_pct - peak(1.0)).abs() < 0.01, "{r:?}");
+        assert!((r.undershoot_pct - peak(2.0)).abs() < 0.01, "{r:?}");
+        // The same response mirrored, a step down 2000 → 1000: undershoot first.
+        let down: Vec<(f64, f64)> = samples.iter().map(|&(t, x)| (t, 3000.0 - x)).collect();
+        let d = step_response(&down, 1.0, 2000.0, 1000.0);
+        assert!((d.undershoot_pct - peak(1.0)).abs() < 0.01, "{d:?}");
+        assert!((d.overshoot_pct - peak(2.0)).abs() < 0.01, "{d:?}");
+        assert_eq!(d.beyond_pct(true), d.undershoot_pct);
+        assert_eq!(d.transition_s, r.transition_s);
         // Rise: solve y(t) = 0.1 and 0.9 by bisection, independently of the metric.
         let solve = |level: f64| {
             let (mut a, mut b) = (0.0, 0.3);
@@ -282,7 +326,10 @@ mod tests {
             a
         };
         let rise = solve(0.9) - solve(0.1);
-        assert!((r.rise_s.unwrap() - rise).abs() < 2e-5, "{r:?} vs {rise}");
+        assert!(
+            (r.transition_s.unwrap() - rise).abs() < 2e-5,
+            "{r:?} vs {rise}"
+        );
         // 2 % of 2000 rpm = 40 rpm = 4 % of the 1000 rpm change: the envelope
         // exp(−ζωn t)/√(1−ζ²) falls to 0.04 at t = ln(1/(0.04·√0.75))/5 = 0.615 s, so the
         // last exit from the band comes before; found on the closed form by stepping back
@@ -347,7 +394,7 @@ mod tests {
     fn step_response_that_never_settles() {
         let samples: Vec<(f64, f64)> = (0..100).map(|k| (k as f64, 1000.0)).collect();
         let r = step_response(&samples, 0.0, 1000.0, 2000.0);
-        assert_eq!(r.rise_s, None);
+        assert_eq!(r.transition_s, None);
         assert_eq!(r.settling_s, None);
         assert_eq!(r.overshoot_pct, 0.0);
     }

@@ -265,6 +265,9 @@ pub struct StepRun {
     pub response: StepResponse,
     /// Restarts during the run.
     pub restarts: u32,
+    /// The run's verdict at its end (figures of a run that is not `running` are not shown
+    /// as a measurement).
+    pub verdict: crate::verdict::Verdict,
     /// True speed record (t \[s\], rpm).
     #[serde(skip)]
     pub speed: Vec<(f64, f64)>,
@@ -279,6 +282,8 @@ pub struct LoadRun {
     pub response: Disturbance,
     /// Restarts during the run.
     pub restarts: u32,
+    /// The run's verdict at its end.
+    pub verdict: crate::verdict::Verdict,
     /// True speed record (t \[s\], rpm).
     #[serde(skip)]
     pub speed: Vec<(f64, f64)>,
@@ -445,6 +450,7 @@ pub fn compare(
                     full_duty_after_s: held_above(&out.duty, p.at_s, 0.95),
                     response: step_response(&out.speed, p.at_s, from, p.to_rpm),
                     restarts: out.summary.restarts,
+                    verdict: out.summary.verdict,
                     speed: out.speed,
                 })
             }
@@ -459,6 +465,7 @@ pub fn compare(
                     variant: label(v),
                     response: disturbance(&out.speed, at, rpm),
                     restarts: out.summary.restarts,
+                    verdict: out.summary.verdict,
                     speed: out.speed,
                 })
             }

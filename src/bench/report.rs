@@ -21,6 +21,14 @@ pub const METRIC_DEFINITIONS: &[(&str, &str)] = &[
         "exact time mean and standard deviation of the electromagnetic torque over the window, from the plant's integrals of Te and Te²; the ripple includes commutation and PWM ripple",
     ),
     (
+        "torque_ripple_lf_nm (LF ripple)",
+        "the vibration proxy: standard deviation of the torque's exact means over consecutive blocks of 1/f_c (f_c = 2 kHz by default: `Scenario::torque_lowpass_hz`) in the window; a boxcar of that length passes what a spindle's structure feels and has its first null at f_c, so the PWM ripple drops out, and with 12 poles and 2 kHz so does the commutation ripple above ≈ 1670 rpm for twelve-step (12 × the electrical frequency) and 3330 rpm for six-step (6 ×)",
+    ),
+    (
+        "current_peak_a / commutation_peak_a",
+        "largest phase-current magnitude in the window, and the commutation surge: the mean over the window's states of the largest phase-current magnitude during each state",
+    ),
+    (
         "current_rms_a",
         "RMS phase current over the window, √(mean(i_u² + i_v² + i_w²)/3), exact: from the copper loss the plant integrates",
     ),
@@ -179,13 +187,13 @@ pub fn write_folder(
 
 fn grid_csv(c: &Comparison) -> String {
     let mut s = String::from(
-        "strategy,speed_ref_rpm,verdict,verdict_reason,speed_mean_rpm,speed_ripple_rpm,torque_mean_nm,torque_ripple_nm,current_rms_a,restarts,chip_running,commutations,commutation_error_deg_mean,commutation_error_deg_max,forced_crossings,sim_s,wall_s,realtime_factor\n",
+        "strategy,speed_ref_rpm,verdict,verdict_reason,speed_mean_rpm,speed_ripple_rpm,torque_mean_nm,torque_ripple_nm,torque_ripple_lf_nm,current_rms_a,current_peak_a,commutation_peak_a,restarts,chip_running,commutations,commutation_error_deg_mean,commutation_error_deg_max,forced_crossings,sim_s,wall_s,realtime_factor\n",
     );
     for g in &c.grid {
         let m = &g.summary;
         let _ = writeln!(
             s,
-            "{},{},{},\"{}\",{:.3},{:.3},{:.6e},{:.6e},{:.5},{},{},{},{:.3},{:.3},{},{:.3},{:.3},{:.2}",
+            "{},{},{},\"{}\",{:.3},{:.3},{:.6e},{:.6e},{:.6e},{:.5},{:.5},{:.5},{},{},{},{:.3},{:.3},{},{:.3},{:.3},{:.2}",
             g.variant,
             m.speed_ref_rpm,
             m.verdict,
@@ -194,7 +202,10 @@ fn grid_csv(c: &Comparison) -> String {
             m.speed_ripple_rpm,
             m.torque_mean_nm,
             m.torque_ripple_nm,
+            m.torque_ripple_lf_nm,
             m.current_rms_a,
+            m.current_peak_a,
+            m.commutation_peak_a,
             m.restarts,
             m.chip_running,
             m.commutations,
@@ -297,6 +308,10 @@ fn ripple_chart(c: &Comparison) -> String {
             Panel {
                 y_label: "torque ripple (std) [mN·m]".into(),
                 series: per(&|s| s.torque_ripple_nm * 1e3),
+            },
+            Panel {
+                y_label: "LF torque ripple < 2 kHz [mN·m]".into(),
+                series: per(&|s| s.torque_ripple_lf_nm * 1e3),
             },
             Panel {
                 y_label: "max |commutation error| [°]".into(),
@@ -461,21 +476,21 @@ fn markdown(c: &Comparison, config: &DriveConfig, crossings: &[String]) -> Strin
     );
     let _ = writeln!(
         s,
-        "\n## Steady state\n\nEvery run is judged from the true rotor (verdicts below); only runs judged `running` show figures, the others show why they failed.\n\n| strategy | command rpm | verdict | mean rpm | ripple rpm | torque mN·m | ripple mN·m | I rms A | err mean ° | err max ° | forced | restarts |\n|---|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|"
+        "\n## Steady state\n\nEvery run is judged from the true rotor (verdicts below); only runs judged `running` show figures, the others show why they failed.\n\n| strategy | command rpm | verdict | mean rpm | ripple rpm | torque mN·m | ripple mN·m | LF ripple mN·m | I rms A | I peak A | commutation peak A | err mean ° | err max ° | forced | restarts |\n|---|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"
     );
     for g in &c.grid {
         let x = &g.summary;
         if !holds(x) {
             let _ = writeln!(
                 s,
-                "| {} | {:.0} | **{}**: {} | – | – | – | – | – | – | – | – | {} |",
+                "| {} | {:.0} | **{}**: {} | – | – | – | – | – | – | – | – | – | – | – | {} |",
                 g.variant, x.speed_ref_rpm, x.verdict, x.verdict_reason, x.restarts
             );
             continue;
         }
         let _ = writeln!(
             s,
-            "| {} | {:.0} | {} | {:.0} | {:.1} | {:.3} | {:.3} | {:.3} | {:+.2} | {:.2} | {} | {} |",
+            "| {} | {:.0} | {} | {:.0} | {:.1} | {:.3} | {:.3} | {:.3} | {:.3} | {:.3} | {:.3} | {:+.2} | {:.2} | {} | {} |",
             g.variant,
             x.speed_ref_rpm,
             x.verdict,
@@ -483,7 +498,10 @@ fn markdown(c: &Comparison, config: &DriveConfig, crossings: &[String]) -> Strin
             x.speed_ripple_rpm,
             x.torque_mean_nm * 1e3,
             x.torque_ripple_nm * 1e3,
+            x.torque_ripple_lf_nm * 1e3,
             x.current_rms_a,
+            x.current_peak_a,
+            x.commutation_peak_a,
             x.commutation_error_deg_mean,
             x.commutation_error_deg_max,
             x.forced_crossings,
@@ -504,6 +522,17 @@ fn markdown(c: &Comparison, config: &DriveConfig, crossings: &[String]) -> Strin
             if case.is_step_down() { "under" } else { "over" }
         );
         for x in c.steps.iter().filter(|x| x.case == k) {
+            if !x.verdict.is_running() {
+                let _ = writeln!(
+                    s,
+                    "| {} | {} | **{}** at the end | – | – | – | – | – | {} |",
+                    x.variant,
+                    x.anti_windup.as_str(),
+                    x.verdict,
+                    x.restarts
+                );
+                continue;
+            }
             let _ = writeln!(
                 s,
                 "| {} | {} | {:.0} | {} | {:.1} | {:.0} | {:.1} | {} | {} |",
@@ -513,7 +542,7 @@ fn markdown(c: &Comparison, config: &DriveConfig, crossings: &[String]) -> Strin
                 opt(x.dip_rpm, 1.0, 0),
                 x.full_duty_after_s * 1e3,
                 x.peak_beyond_rpm,
-                x.response.overshoot_pct,
+                x.response.beyond_pct(case.is_step_down()),
                 opt(x.response.settling_s, 1.0, 3),
                 x.restarts
             );
@@ -527,6 +556,14 @@ fn markdown(c: &Comparison, config: &DriveConfig, crossings: &[String]) -> Strin
         c.plan.load.0
     );
     for x in &c.loads {
+        if !x.verdict.is_running() {
+            let _ = writeln!(
+                s,
+                "| {} | **{}** at the end | – | {} |",
+                x.variant, x.verdict, x.restarts
+            );
+            continue;
+        }
         let _ = writeln!(
             s,
             "| {} | {:.0} | {} | {} |",
