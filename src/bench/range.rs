@@ -28,11 +28,11 @@ pub const TURN_DOWN_S: f64 = 1.5;
 /// Time the turned-down drive gets to settle before its window \[s\].
 pub const SETTLE_S: f64 = 2.0;
 /// Relative resolution of the bisection.
-const RESOLUTION: f64 = 0.03;
+pub const RESOLUTION: f64 = 0.03;
 /// Absolute resolution of the floor's bisection \[rpm\].
-const FLOOR_RESOLUTION_RPM: f64 = 5.0;
+pub const FLOOR_RESOLUTION_RPM: f64 = 5.0;
 /// Where the search starts; tried first, then a ladder if it fails.
-const SEEDS: [f64; 5] = [3000.0, 2000.0, 4500.0, 1000.0, 6000.0];
+pub const SEEDS: [f64; 5] = [3000.0, 2000.0, 4500.0, 1000.0, 6000.0];
 
 /// The chip's FG speed meter (SPEC-style counter over k FG periods).
 #[derive(Copy, Clone, Debug, PartialEq, Serialize)]
@@ -142,7 +142,9 @@ fn judge(sc: &Scenario) -> Result<(bool, Summary), RunError> {
     Ok((s.verdict.is_running() && s.restarts == 0, s))
 }
 
-fn limit(rpm: f64, s: &Summary) -> Limit {
+/// The limit a failed run at `rpm` sets: its verdict and reason (restarts named when the
+/// verdict alone would read `running`).
+pub fn limit(rpm: f64, s: &Summary) -> Limit {
     Limit {
         rpm: rpm.round(),
         verdict: s.verdict,
