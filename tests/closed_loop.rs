@@ -145,12 +145,14 @@ fn mean_speed(r: &Run, a: f64, b: f64) -> f64 {
 
 /// From standstill every guarded strategy aligns, hands over, locks and holds the command
 /// within 2 % (mean over the last second). ND only above its floor (see
-/// `nd_linear_region_sets_a_floor_on_the_speed`). LM's first hand-over fails (its 1°
-/// window at unknown speed leaves detection unguarded, and a late crossing extends the
-/// full-voltage region into a stall-current pulse); the automatic restart then starts it.
-/// LM at 3000 rpm stays locked but wanders ±8 % over ≈ 1 s: its window grows 1° per 500 rpm
-/// (positive feedback of speed on voltage, in whole-degree steps), and the one current sample
-/// per PI update sometimes falls in the full-voltage window; so it is not listed here.
+/// `nd_linear_region_sets_a_floor_on_the_speed`). LM may need one restart: its 1° window at
+/// unknown speed leaves detection unguarded, and a late crossing extends the full-voltage
+/// region into a stall-current pulse. With the former round speeds (ωm 1000, ωM 8000 rpm)
+/// its first hand-over failed at 2000 and 6000 rpm (with the calibrated ones it does not),
+/// and at 3000 rpm it stayed locked but wandered ±8 % over ≈ 1 s: its window grew 1° per
+/// 500 rpm (positive feedback of speed on voltage, in whole-degree steps), and the one
+/// current sample per PI update sometimes fell in the full-voltage window; so 3000 rpm is
+/// not listed here.
 #[test]
 fn every_guarded_strategy_starts_locks_and_holds_the_commanded_speed() {
     for (name, rpm, restarts) in [

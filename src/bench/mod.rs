@@ -1,6 +1,7 @@
 //! The strategy benchmark: every built-in strategy on the same motor, compared on the
 //! same scenarios. The `drive-bench` binary is a thin front end over this module.
 
+pub mod calibrate;
 pub mod pool;
 pub mod range;
 pub mod report;

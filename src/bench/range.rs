@@ -36,11 +36,11 @@ pub const RAMP_RPM_PER_S: f64 = 1000.0;
 /// Command updates of the ramp \[s\].
 const RAMP_STEP_S: f64 = 0.01;
 /// Relative resolution of the bisection.
-const RESOLUTION: f64 = 0.03;
+pub const RESOLUTION: f64 = 0.03;
 /// Absolute resolution of the floor's bisection \[rpm\].
-const FLOOR_RESOLUTION_RPM: f64 = 5.0;
+pub const FLOOR_RESOLUTION_RPM: f64 = 5.0;
 /// Where the search starts; tried first, then a ladder if it fails.
-const SEEDS: [f64; 5] = [3000.0, 2000.0, 4500.0, 1000.0, 6000.0];
+pub const SEEDS: [f64; 5] = [3000.0, 2000.0, 4500.0, 1000.0, 6000.0];
 
 /// The chip's FG speed meter (SPEC-style counter over k FG periods).
 #[derive(Copy, Clone, Debug, PartialEq, Serialize)]
@@ -135,19 +135,32 @@ pub fn held_after_turn_down(
     seed_rpm: f64,
     rpm: f64,
 ) -> Result<(bool, Summary), RunError> {
-    let pole_pairs = f64::from(config.motor.poles / 2);
-    let window = (20.0 * 60.0 / (rpm * pole_pairs)).clamp(1.0, 5.0);
-    let ramp_s = (seed_rpm - rpm).max(0.0) / RAMP_RPM_PER_S;
-    let duration = TURN_DOWN_S + ramp_s + SETTLE_S + window;
-    let mut sc = Scenario::hold(config.clone(), seed_rpm, duration);
-    let steps = (ramp_s / RAMP_STEP_S).ceil() as usize;
-    sc.speed_steps.extend((1..=steps).map(|k| {
-        let dt = k as f64 * RAMP_STEP_S;
-        (TURN_DOWN_S + dt, (seed_rpm - RAMP_RPM_PER_S * dt).max(rpm))
-    }));
-    sc.steady_from_s = duration - window;
+    let mut sc = turned(config, seed_rpm, rpm, TURN_DOWN_S);
     sc.plugin = plugin.cloned();
     judge(&sc)
+}
+
+/// A drive commanded `seed_rpm` from standstill whose command ramps at [`RAMP_RPM_PER_S`]
+/// from `at_s` to `rpm` (down or up), given [`SETTLE_S`] and then judged over a window of
+/// at least 20 electrical turns at `rpm` (1–5 s).
+pub fn turned(config: &DriveConfig, seed_rpm: f64, rpm: f64, at_s: f64) -> Scenario {
+    let pole_pairs = f64::from(config.motor.poles / 2);
+    let window = (20.0 * 60.0 / (rpm * pole_pairs)).clamp(1.0, 5.0);
+    let ramp_s = (seed_rpm - rpm).abs() / RAMP_RPM_PER_S;
+    let duration = at_s + ramp_s + SETTLE_S + window;
+    let mut sc = Scenario::hold(config.clone(), seed_rpm, duration);
+    let steps = (ramp_s / RAMP_STEP_S).ceil() as usize;
+    let toward = (rpm - seed_rpm).signum() * RAMP_RPM_PER_S;
+    sc.speed_steps.extend((1..=steps).map(|k| {
+        let dt = k as f64 * RAMP_STEP_S;
+        let x = seed_rpm + toward * dt;
+        (
+            at_s + dt,
+            if toward < 0.0 { x.max(rpm) } else { x.min(rpm) },
+        )
+    }));
+    sc.steady_from_s = duration - window;
+    sc
 }
 
 fn judge(sc: &Scenario) -> Result<(bool, Summary), RunError> {
@@ -155,7 +168,9 @@ fn judge(sc: &Scenario) -> Result<(bool, Summary), RunError> {
     Ok((s.verdict.is_running() && s.restarts == 0, s))
 }
 
-fn limit(rpm: f64, s: &Summary) -> Limit {
+/// The limit a failed run at `rpm` sets: its verdict and reason (restarts named when the
+/// verdict alone would read `running`), led by where the rotor first slipped.
+pub fn limit(rpm: f64, s: &Summary) -> Limit {
     let reason = if s.restarts > 0 && s.verdict == Verdict::Running {
         format!("{} restarts before holding the speed", s.restarts)
     } else {

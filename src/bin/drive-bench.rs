@@ -1,7 +1,7 @@
 //! drive-bench: compares commutation strategies on the built-in motor (see the README).
 
 use bldc_drive::DriveConfig;
-use bldc_drive::bench::{self, Plan, pool, range, report};
+use bldc_drive::bench::{self, Plan, calibrate, pool, range, report};
 use bldc_drive::scenario::{self, Scenario, TraceRow, TraceSpec};
 use bldc_drive::strategies::{PluginLibrary, StrategyName};
 use clap::{Args, Parser, Subcommand};
@@ -58,6 +58,18 @@ enum Cmd {
         #[arg(long)]
         config: Option<PathBuf>,
         /// Writes the result as JSON.
+        #[arg(long)]
+        json: Option<PathBuf>,
+    },
+    /// Calibrates the LM guard's speeds for the config's motor: ωm, the lowest speed a 1°
+    /// window holds, and ωM, the speed from which the full window (strategy.linear_region_deg)
+    /// is needed, each found with fixed-window (ND) runs judged by the verdict; prints the
+    /// `[strategy]` lines to paste.
+    CalibrateLm {
+        /// TOML config (its motor and drive; the strategy name is ignored).
+        #[arg(long)]
+        config: Option<PathBuf>,
+        /// Writes the result, with every run, as JSON.
         #[arg(long)]
         json: Option<PathBuf>,
     },
@@ -206,6 +218,10 @@ fn run(cli: Cli) -> Result<i32, String> {
             }
             Ok(0)
         }
+        Some(Cmd::CalibrateLm { config, json }) => {
+            let cfg = load_config(config.as_deref())?;
+            calibrate_lm(&cfg, json.as_deref())
+        }
         Some(Cmd::List) => {
             for n in StrategyName::ALL {
                 println!("{n}");
@@ -333,6 +349,60 @@ fn run_one(a: RunArgs, plugins: &[PluginLibrary]) -> Result<i32, String> {
         write(&p, &to_json(s)?)?;
     }
     Ok(s.verdict.exit_code())
+}
+
+fn calibrate_lm(cfg: &DriveConfig, json: Option<&Path>) -> Result<i32, String> {
+    let c = calibrate::calibrate_lm(cfg, pool::default_threads()).map_err(|e| e.to_string())?;
+    let limit = |l: &Option<range::Limit>| match l {
+        Some(l) => format!("at {:.0} rpm: {}: {}", l.rpm, l.verdict, l.reason),
+        None => "no failure on record".into(),
+    };
+    println!(
+        "ωm = {} rpm: lowest speed held with a 1° window (limited {})",
+        c.min_rpm,
+        limit(&c.min_limit)
+    );
+    if c.full_window_needed {
+        let full = match c.full_window_holds_at_limit {
+            Some(true) => format!("; {}° keeps synchronism there", c.theta_max_deg),
+            Some(false) => format!(
+                "; {}° fails there too, so the width is not what fails",
+                c.theta_max_deg
+            ),
+            None => String::new(),
+        };
+        println!(
+            "ωM = {} rpm: highest speed a {}° window keeps in synchronism (limited {}{full})",
+            c.max_rpm,
+            c.narrower_deg,
+            limit(&c.max_limit)
+        );
+    } else {
+        println!(
+            "ωM = {} rpm: a {}° window keeps synchronism up to the top speed the voltage allows (the true speed at a {:.0} rpm command), so {}° is never needed below it; ωM is that top speed",
+            c.max_rpm,
+            c.narrower_deg,
+            range::SEARCH_MAX_RPM,
+            c.theta_max_deg
+        );
+    }
+    println!(
+        "{} runs, {:.1} s; meter {}\ncriterion: {}",
+        c.runs.len(),
+        c.wall_s,
+        c.meter,
+        c.criterion
+    );
+    if let Some(p) = json {
+        write(p, &to_json(&c)?)?;
+    }
+    match c.apply(cfg) {
+        Ok(_) => {
+            print!("\npaste into the config:\n{}", c.toml_lines());
+            Ok(0)
+        }
+        Err(e) => Err(format!("the calibrated values cannot be used: {e}")),
+    }
 }
 
 fn load_config(path: Option<&Path>) -> Result<DriveConfig, String> {

@@ -111,6 +111,8 @@ pub struct Chip {
     supervisor: Supervisor,
     /// FG measurements the supervisor has seen.
     measurements_seen: u64,
+    /// A linear region (full voltage) was in force at some tick since the last PI update.
+    linear_seen: bool,
     pole_pairs: u32,
     amps_per_code: f64,
     top: u32,
@@ -209,6 +211,7 @@ impl Chip {
             current_pi,
             supervisor: Supervisor::new(&control),
             measurements_seen: 0,
+            linear_seen: false,
             pole_pairs: pole_pairs.max(1),
             amps_per_code,
             top,
@@ -395,6 +398,7 @@ impl Chip {
         }
         self.pattern = self.shifter.pattern();
         self.linear = self.window_start().is_some_and(|w| now >= w);
+        self.linear_seen |= self.linear;
         let fg = self.table.fg(self.shifter.state());
         if fg != self.fg {
             if fg {
@@ -442,15 +446,18 @@ impl Chip {
         self.measurements_seen = self.speed.measurements();
         let tripped = measured && {
             let sector_s = t60.max(1) as f64 * clocks::COMMUTATION.seconds();
-            let window = self
-                .guard
-                .linear_window_deg(self.speed.rpm())
-                .map_or(0.0, f64::from);
-            let d = f64::from(self.cv) / f64::from(self.top);
+            // A linear region since the last update applied full voltage, and the sampled
+            // current may come from it (it outlasts the window by several L/R).
+            let duty_eff = if self.linear_seen {
+                1.0
+            } else {
+                f64::from(self.cv) / f64::from(self.top)
+            };
+        self.linear_seen = self.linear;
             self.supervisor.update(&Update {
                 shifter_rpm: 60.0 / (6.0 * sector_s * f64::from(self.pole_pairs)),
                 meter_rpm: new_reading.then(|| f64::from(self.speed.rpm())),
-                duty_eff: d + (1.0 - d) * window / 60.0,
+                duty_eff,
                 current_a: i,
                 torque_asked: self.i_ref > 0.0,
             })

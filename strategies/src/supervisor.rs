@@ -10,9 +10,10 @@
 //!
 //! **What gives it away.** A rotor at speed ω has a line-to-line back-EMF
 //! E(ω) = V_DD·ω/ω₀, ω₀ the motor's no-load speed at full voltage. The bridge applies an
-//! average d_eff·V_DD across the conducting pair (d_eff = d + (1 − d)·θZC/60°, counting a
-//! linear region's full-voltage window), and motoring current can only flow while
-//! d_eff·V_DD > E. So a measured current of at least `i_min` while
+//! average d_eff·V_DD across the conducting pair, and motoring current can only flow while
+//! d_eff·V_DD > E. d_eff is the PWM duty, or 1 when a linear region (full voltage) was in
+//! force since the last update: the sampled current may come from that window, whose
+//! length the guard does not fix (it lasts until the crossing is seen). So a measured current of at least `i_min` while
 //! d_eff < f·ω_est/ω₀ says the rotor turns much slower than the chip believes (f < 1
 //! leaves room for the resistive and switch drops, which only make the true requirement
 //! larger, and for a wrong ω₀). Coasting after a step down does not trip it: there the
