@@ -5,6 +5,7 @@ pub mod calibrate;
 pub mod pool;
 pub mod range;
 pub mod report;
+pub mod results;
 pub mod svg;
 
 use crate::config::DriveConfig;

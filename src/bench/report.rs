@@ -174,6 +174,7 @@ pub fn write_folder(
     put("speed_step.svg", speed_step_chart(c))?;
     put("load_step.svg", load_step_chart(c))?;
     put("ripple_vs_speed.svg", ripple_chart(c))?;
+    put(super::results::RANGE_CHART, super::results::range_chart(c))?;
     put("phase_current.svg", current_chart(c))?;
     let mut crossing_files = Vec::new();
     for t in &c.crossings {
@@ -432,7 +433,8 @@ fn markdown(c: &Comparison, config: &DriveConfig, crossings: &[String]) -> Strin
         c.threads
     );
     let _ = writeln!(s, "## Summary\n\n```\n{}```\n", terminal_table(c));
-    let _ = writeln!(s, "## Metrics\n");
+    s.push_str(&super::results::section(c));
+    let _ = writeln!(s, "\n## Metrics\n");
     for (name, def) in METRIC_DEFINITIONS {
         let _ = writeln!(s, "- **{name}**: {def}.");
     }

@@ -453,7 +453,6 @@ impl Chip {
             } else {
                 f64::from(self.cv) / f64::from(self.top)
             };
-        self.linear_seen = self.linear;
             self.supervisor.update(&Update {
                 shifter_rpm: 60.0 / (6.0 * sector_s * f64::from(self.pole_pairs)),
                 meter_rpm: new_reading.then(|| f64::from(self.speed.rpm())),
@@ -462,6 +461,7 @@ impl Chip {
                 torque_asked: self.i_ref > 0.0,
             })
         };
+        self.linear_seen = self.linear;
         let i_ref = if self.speed.measurements() == 0 {
             self.control.start_current_a
         } else {
