@@ -92,6 +92,12 @@ impl Verdict {
     pub fn is_running(self) -> bool {
         self == Verdict::Running
     }
+
+    /// Whether the commutation followed the rotor to the end (running or off-speed): what
+    /// a response measurement needs, whose settling is itself the object of study.
+    pub fn in_sync(self) -> bool {
+        matches!(self, Verdict::Running | Verdict::OffSpeed)
+    }
 }
 
 impl fmt::Display for Verdict {

@@ -364,5 +364,9 @@ pub(crate) fn build_table() -> Vec<Variable> {
             "PI updates the supervisor looks back over [count]"),
         real!("control.supervisor_coast_rise", control.supervisor_coast_rise, "1", Some(0.01), Some(10.0),
             "Rise of the speed measurement over the lowest of a coast that trips the supervisor"),
+        real!("control.supervisor_locked_rotor_a", control.supervisor_locked_rotor_a, "A", z, Some(1000.0),
+            "Locked-rotor current at full voltage the supervisor assumes, V_DD/(2R) (> 0)"),
+        real!("control.supervisor_locked_share", control.supervisor_locked_share, "1", z, Some(1.0),
+            "Share of the locked-rotor current at the duty in force a measured current must reach to count as implausible"),
     ]
 }

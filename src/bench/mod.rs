@@ -267,8 +267,8 @@ pub struct StepRun {
     pub response: StepResponse,
     /// Restarts during the run.
     pub restarts: u32,
-    /// The run's verdict at its end (figures of a run that is not `running` are not shown
-    /// as a measurement).
+    /// The run's verdict at its end (figures of a run that lost the rotor are not shown
+    /// as a measurement; off-speed is the response still settling).
     pub verdict: crate::verdict::Verdict,
     /// True speed record (t \[s\], rpm).
     #[serde(skip)]

@@ -524,7 +524,7 @@ fn markdown(c: &Comparison, config: &DriveConfig, crossings: &[String]) -> Strin
             if case.is_step_down() { "under" } else { "over" }
         );
         for x in c.steps.iter().filter(|x| x.case == k) {
-            if !x.verdict.is_running() {
+            if !x.verdict.in_sync() {
                 let _ = writeln!(
                     s,
                     "| {} | {} | **{}** at the end | – | – | – | – | – | {} |",
@@ -558,7 +558,7 @@ fn markdown(c: &Comparison, config: &DriveConfig, crossings: &[String]) -> Strin
         c.plan.load.0
     );
     for x in &c.loads {
-        if !x.verdict.is_running() {
+        if !x.verdict.in_sync() {
             let _ = writeln!(
                 s,
                 "| {} | **{}** at the end | – | {} |",

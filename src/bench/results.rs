@@ -11,8 +11,10 @@ use std::fmt::Write as _;
 /// The file of the speed-range figure.
 pub const RANGE_CHART: &str = "speed_range.svg";
 
-/// Speeds of the grid taken as low and medium for the vibration comparison \[rpm\].
-const LOW_RPM: f64 = 1000.0;
+/// Speeds of the grid taken as low and medium for the vibration comparison \[rpm\]: 2000,
+/// not 1000, because started from standstill at 1000 rpm the speed loop has not settled
+/// within the grid's 3 s (the floors, turned down, reach lower).
+const LOW_RPM: f64 = 2000.0;
 const MEDIUM_RPM: f64 = 3000.0;
 
 fn ranges<'a>(c: &'a Comparison, meter: &'a str) -> impl Iterator<Item = &'a Range> + 'a {
@@ -178,7 +180,7 @@ fn anti_windup(c: &Comparison, s: &mut String) {
                     .iter()
                     .find(|x| x.case == k && &x.variant == v && x.anti_windup == aw)
                     .map_or("–".into(), |x| {
-                        if !x.verdict.is_running() {
+                        if !x.verdict.in_sync() {
                             return format!("*{}*", x.verdict);
                         }
                         format!(

@@ -459,6 +459,7 @@ impl Chip {
                 duty_eff,
                 current_a: i,
                 torque_asked: self.i_ref > 0.0,
+                twelve_step: matches!(self.table, Table::TwelveStep { .. }),
             })
         };
         self.linear_seen = self.linear;

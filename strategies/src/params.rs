@@ -101,6 +101,14 @@ pub struct ControlParams {
     /// Smallest measured current that proves conduction \[A\]. Default 0.01 (82 ADC codes
     /// with the default sensing, 4 % of the current limit). Rule: 0 < x ≤ 10.
     pub supervisor_current_a: f64,
+    /// Locked-rotor current at full voltage the supervisor assumes, V_DD/(2R) \[A\] (a
+    /// datasheet figure). Default 2.73: the built-in motor at 12 V (R = 2.2 Ω).
+    /// Rule: 0 < x ≤ 1000.
+    pub supervisor_locked_rotor_a: f64,
+    /// Share of the locked-rotor current at the duty in force, d·I_lr, that a measured
+    /// current must reach to count as implausible under twelve-step \[1\]. Default 0.03 (a decelerating
+    /// twelve-step drive passes ≈ 1.5 %, a rotor standing still 3–30 %). Rule: 0..=1.
+    pub supervisor_locked_share: f64,
     /// PI updates the supervisor looks back over; it trips when half of them were
     /// implausible. Default 8 (42 ms). Rule: 2..=32.
     pub supervisor_updates: u32,
@@ -136,6 +144,8 @@ impl Default for ControlParams {
             supervisor_no_load_rpm: 15150.0,
             supervisor_emf_fraction: 0.5,
             supervisor_current_a: 0.01,
+            supervisor_locked_rotor_a: 2.73,
+            supervisor_locked_share: 0.03,
             supervisor_updates: 8,
             supervisor_coast_rise: 0.25,
             speed_periods: 10,
@@ -249,6 +259,20 @@ impl ControlParams {
                 "must be in (0, 10] A",
             ));
         }
+        if !(self.supervisor_locked_rotor_a > 0.0 && self.supervisor_locked_rotor_a <= 1000.0) {
+            return Err(ParamError::new(
+                "control.supervisor_locked_rotor_a",
+                self.supervisor_locked_rotor_a,
+                "must be in (0, 1000] A",
+            ));
+        }
+        check_range(
+            "control.supervisor_locked_share",
+            self.supervisor_locked_share,
+            0.0,
+            1.0,
+            "must be in 0..=1",
+        )?;
         check_range(
             "control.supervisor_updates",
             f64::from(self.supervisor_updates),

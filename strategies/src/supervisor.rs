@@ -16,8 +16,15 @@
 //! length the guard does not fix (it lasts until the crossing is seen). So a measured current of at least `i_min` while
 //! d_eff < f·ω_est/ω₀ says the rotor turns much slower than the chip believes (f < 1
 //! leaves room for the resistive and switch drops, which only make the true requirement
-//! larger, and for a wrong ω₀). Coasting after a step down does not trip it: there the
-//! current is zero. ω_est is the phase shifter's, 60°/t_60: it exists two crossings after
+//! larger, and for a wrong ω₀). With twelve-step a current there must also be a real share
+//! of what the duty would drive into a locked rotor, at least `locked_share`·d_eff·I_lr
+//! (I_lr = V_DD/(2R), the locked-rotor current at full voltage): its 3-phase states conduct
+//! where a phase's back-EMF is near zero, so a decelerating drive still passes a trickle
+//! (≈ 1.5 % of d·I_lr measured at 10 krpm) at a duty below half the believed back-EMF,
+//! while a rotor that stands still draws 3–30 %. Six-step conducts only within ±30° of the
+//! line-to-line peak, where the back-EMF is at least 0.87 of its peak, so the trickle
+//! cannot flow there.
+//! Coasting after a step down does not trip it: there the current is zero. ω_est is the phase shifter's, 60°/t_60: it exists two crossings after
 //! the hand-over, where the FG meter needs ten electrical turns.
 //!
 //! The ADC takes one sample per PI update of a chopped current, so a single update can read
@@ -43,6 +50,8 @@ pub struct Supervisor {
     no_load_rpm: f64,
     fraction: f64,
     current_a: f64,
+    locked_rotor_a: f64,
+    locked_share: f64,
     updates: u32,
     coast_rise: f64,
     history: u32,
@@ -64,6 +73,8 @@ pub struct Update {
     pub current_a: f64,
     /// Whether the speed loop asks for current.
     pub torque_asked: bool,
+    /// Whether the table is twelve-step (3-phase states conduct near a back-EMF zero).
+    pub twelve_step: bool,
 }
 
 impl Supervisor {
@@ -74,6 +85,8 @@ impl Supervisor {
             no_load_rpm: control.supervisor_no_load_rpm,
             fraction: control.supervisor_emf_fraction,
             current_a: control.supervisor_current_a,
+            locked_rotor_a: control.supervisor_locked_rotor_a,
+            locked_share: control.supervisor_locked_share,
             updates: control.supervisor_updates.clamp(1, 32),
             coast_rise: control.supervisor_coast_rise,
             history: 0,
@@ -92,8 +105,20 @@ impl Supervisor {
 
     /// Whether one PI update is implausible: `current_a` measured while an effective duty
     /// `duty_eff` (0..1) was applied and the meter read `speed_rpm`.
-    pub fn implausible(&self, speed_rpm: f64, duty_eff: f64, current_a: f64) -> bool {
-        current_a >= self.current_a && duty_eff < self.fraction * speed_rpm / self.no_load_rpm
+    pub fn implausible(
+        &self,
+        speed_rpm: f64,
+        duty_eff: f64,
+        current_a: f64,
+        twelve_step: bool,
+    ) -> bool {
+        let trickle = if twelve_step {
+            self.locked_share * duty_eff * self.locked_rotor_a
+        } else {
+            0.0
+        };
+        current_a >= self.current_a.max(trickle)
+            && duty_eff < self.fraction * speed_rpm / self.no_load_rpm
     }
 
     /// Records one PI update; true when the supervisor trips (it then starts afresh).
@@ -106,7 +131,7 @@ impl Supervisor {
         } else {
             (1u32 << self.updates) - 1
         };
-        let bad = self.implausible(u.shifter_rpm, u.duty_eff, u.current_a);
+        let bad = self.implausible(u.shifter_rpm, u.duty_eff, u.current_a, u.twelve_step);
         self.history = ((self.history << 1) | u32::from(bad)) & mask;
         let mut trip = 2 * self.history.count_ones() >= self.updates;
         if u.torque_asked || u.current_a >= self.current_a {
@@ -146,6 +171,8 @@ mod tests {
             supervisor_current_a: 0.01,
             supervisor_updates: 8,
             supervisor_coast_rise: 0.25,
+            supervisor_locked_rotor_a: 2.7,
+            supervisor_locked_share: 0.03,
             ..ControlParams::default()
         })
     }
@@ -154,11 +181,19 @@ mod tests {
     fn current_below_the_back_emf_of_the_believed_speed_is_implausible() {
         let s = sup();
         // Believed 6000 rpm: E = 0.4·V_DD, half of it 0.2. Duty 0.15 with 0.05 A: impossible.
-        assert!(s.implausible(6000.0, 0.15, 0.05));
+        assert!(s.implausible(6000.0, 0.15, 0.05, false));
         // Duty 0.25 covers half the back-EMF: plausible (drops and ω₀ may be off).
-        assert!(!s.implausible(6000.0, 0.25, 0.05));
+        assert!(!s.implausible(6000.0, 0.25, 0.05, false));
         // No current (coasting after a step down, E > d·V_DD): plausible.
-        assert!(!s.implausible(6000.0, 0.0, 0.0));
+        assert!(!s.implausible(6000.0, 0.0, 0.0, false));
+        // Twelve-step: a trickle below 3 % of the locked-rotor current at that duty
+        // (0.03·0.15·2.7 = 12.15 mA) is what it passes near a phase's EMF zero; plausible.
+        assert!(!s.implausible(6000.0, 0.15, 0.0115, true));
+        assert!(s.implausible(6000.0, 0.15, 0.0125, true));
+        assert!(
+            s.implausible(6000.0, 0.15, 0.0115, false),
+            "six-step has no trickle"
+        );
     }
 
     fn at(rpm: f64, duty_eff: f64, current_a: f64) -> Update {
@@ -168,6 +203,7 @@ mod tests {
             duty_eff,
             current_a,
             torque_asked: true,
+            twelve_step: false,
         }
     }
 
@@ -200,6 +236,7 @@ mod tests {
             duty_eff: 0.0,
             current_a,
             torque_asked: false,
+            twelve_step: false,
         }
     }
 
