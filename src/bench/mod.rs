@@ -4,6 +4,7 @@
 pub mod pool;
 pub mod range;
 pub mod report;
+pub mod startup;
 pub mod svg;
 
 use crate::config::DriveConfig;
