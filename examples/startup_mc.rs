@@ -1,5 +1,7 @@
 //! Start-up Monte-Carlo of every built-in strategy (and the digital-filter twelve-step at
 //! 135° and 165°): `cargo run --release --example startup_mc -- [samples] [seed] [threads]`.
+//! Environment: `ONLY=label-part` runs the matching variants only, `RPM=x` changes the
+//! command (default 3000), `DUMP=dir` writes each failed sample's config there.
 
 use bldc_drive::DriveConfig;
 use bldc_drive::bench::standard_variants;
@@ -14,13 +16,23 @@ fn main() {
     let seed = args.get(1).copied().unwrap_or(1);
     let threads = args.get(2).copied().unwrap_or(1) as usize;
     let only = std::env::var("ONLY").ok();
-    let base = DriveConfig::default();
+    let mut base = DriveConfig::default();
+    if let Ok(rpm) = std::env::var("RPM") {
+        base.control.speed_ref_rpm = rpm.parse().expect("numeric RPM");
+    }
     for v in standard_variants(&base.strategy) {
         if only.as_ref().is_some_and(|o| !v.label.contains(o.as_str())) {
             continue;
         }
-        let s = monte_carlo(&base, &v.strategy, samples, seed, Spread::default(), threads)
-            .expect("runs");
+        let s = monte_carlo(
+            &base,
+            &v.strategy,
+            samples,
+            seed,
+            Spread::default(),
+            threads,
+        )
+        .expect("runs");
         let mean = |x: &[f64]| x.iter().sum::<f64>() / x.len().max(1) as f64;
         let max = |x: &[f64]| x.iter().cloned().fold(0.0, f64::max);
         println!(

@@ -6,8 +6,8 @@
 //! model needs L_self > M), draws each comparator offset uniform in ±`offset_v`, and draws
 //! a fresh noise seed. A start counts as a success when the drive is handed over to
 //! closed loop once and stays there (no restart) and the true mean speed over the last
-//! [`STEADY_S`] of a [`RUN_S`] run at [`COMMAND_RPM`] is within [`TOLERANCE`] of the
-//! command.
+//! [`STEADY_S`] of a [`RUN_S`] run at the base config's `control.speed_ref_rpm` (3000 rpm
+//! by default) is within [`TOLERANCE`] of that command.
 
 use crate::config::DriveConfig;
 use crate::drive::{build, run_to};
@@ -17,8 +17,6 @@ use drive_core::{Abc, Plant, StopReason};
 use serde::Serialize;
 use strategies::{Mode, StrategyParams};
 
-/// Speed command of every start \[rpm\].
-pub const COMMAND_RPM: f64 = 3000.0;
 /// Length of each run \[s\].
 pub const RUN_S: f64 = 3.0;
 /// Window at the end of the run over which the mean speed is taken \[s\].
@@ -167,11 +165,10 @@ pub fn sample(base: &DriveConfig, spread: Spread, rng: &mut SplitMix64) -> (Driv
     (c, sampled)
 }
 
-/// Runs one start of `config` at [`COMMAND_RPM`] for [`RUN_S`].
+/// Runs one start of `config` (command `control.speed_ref_rpm`) for [`RUN_S`].
 pub fn start_once(config: &DriveConfig, sampled: Sampled) -> Result<StartRun, RunError> {
-    let mut c = config.clone();
-    c.control.speed_ref_rpm = COMMAND_RPM;
-    let mut eng = build(&c)?;
+    let command = config.control.speed_ref_rpm;
+    let mut eng = build(config)?;
     let steady_from = RUN_S - STEADY_S;
     let mut handover = None;
     let mut steady = TimeStats::default();
@@ -189,7 +186,7 @@ pub fn start_once(config: &DriveConfig, sampled: Sampled) -> Result<StartRun, Ru
         if t >= next {
             next = t + SAMPLE_S;
             let rpm = e.plant.observe().speed_rpm;
-            if (rpm - COMMAND_RPM).abs() > TOLERANCE * COMMAND_RPM {
+            if (rpm - command).abs() > TOLERANCE * command {
                 last_out = t;
             }
             if t >= steady_from {
@@ -200,8 +197,7 @@ pub fn start_once(config: &DriveConfig, sampled: Sampled) -> Result<StartRun, Ru
     let s = eng.controller.status();
     let mean = steady.mean();
     let running = s.mode == Mode::Running;
-    let started =
-        running && s.restarts == 0 && (mean - COMMAND_RPM).abs() <= TOLERANCE * COMMAND_RPM;
+    let started = running && s.restarts == 0 && (mean - command).abs() <= TOLERANCE * command;
     Ok(StartRun {
         sampled,
         started,
