@@ -97,6 +97,18 @@ fn bad_configs_are_refused_naming_the_key() {
     );
     refused("[control]\nstartup_duty = 0.0\n", "control.startup_duty");
     refused(
+        "[control]\nstartup_confirm_deg = 16\n",
+        "control.startup_confirm_deg",
+    );
+    refused(
+        "[control]\nstartup_conduction_deg = 180.0\n",
+        "control.startup_conduction_deg",
+    );
+    refused(
+        "[control]\nstartup_conduction_deg = 119.0\n",
+        "control.startup_conduction_deg",
+    );
+    refused(
         "[control]\nalign_s = [0.7, 0.0, 0.015]\n",
         "control.align_s[1]",
     );

@@ -368,5 +368,9 @@ pub(crate) fn build_table() -> Vec<Variable> {
             "Locked-rotor current at full voltage the supervisor assumes, V_DD/(2R) (> 0)"),
         real!("control.supervisor_locked_share", control.supervisor_locked_share, "1", z, Some(1.0),
             "Share of the locked-rotor current at the duty in force a measured current must reach to count as implausible"),
+        int!("control.startup_confirm_deg", control.startup_confirm_deg, z, Some(15.0),
+            "Until the first speed measurement, a crossing needs the comparator at its new level for this many electrical degrees of the last 60° time (0: off) [deg]"),
+        real!("control.startup_conduction_deg", control.startup_conduction_deg, "deg", Some(120.0), Some(180.0),
+            "Twelve-step conduction angle until the first speed measurement, when narrower than strategy.conduction_angle_deg (120 <= x < 180)"),
     ]
 }

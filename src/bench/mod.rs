@@ -6,6 +6,7 @@ pub mod pool;
 pub mod range;
 pub mod report;
 pub mod results;
+pub mod startup;
 pub mod svg;
 
 use crate::config::DriveConfig;

@@ -39,8 +39,12 @@ pub const ALIGN_PATTERNS: [Pattern; 3] = {
     ]
 };
 
-/// The sector whose pre pattern is the last alignment pattern (v→u, w floating).
-const HANDOVER_SECTOR: usize = 3;
+/// The sector the closed loop starts in: pre pattern w→v (u floating; state 12, or 1 in
+/// six-step), the state for θe = 330..360°. The last alignment pattern v→u has zero
+/// torque at 330° (T ∝ −√3·cos(θe − 60°)) and pulls the rotor there, so starting in its
+/// own sector (v→u, waiting for w's crossing at 240°) would wait for a crossing the rotor
+/// has passed, with no torque to move it; w→v gives 0.87 of its peak torque at 330°.
+const HANDOVER_SECTOR: usize = 5;
 
 /// What the chip is doing.
 #[derive(Copy, Clone, Debug, PartialEq, Eq)]
@@ -100,6 +104,8 @@ pub struct Chip {
     name: StrategyName,
     control: ControlParams,
     table: Table,
+    /// The table after start-up (the configured angle); `table` until then.
+    run_table: Table,
     /// A table set since the last tick: the shifter takes it at the end of the next one,
     /// so that the channels that tick reads were declared under the table it uses.
     pending_table: Option<Table>,
@@ -199,6 +205,7 @@ impl Chip {
         Ok(Chip {
             name: strategy.name,
             table,
+            run_table: table,
             pending_table: None,
             guard: Guard::from_params(&strategy),
             shifter: PhaseShifter::new(table, BLANKING),
@@ -274,6 +281,7 @@ impl Chip {
         self.table = Table::TwelveStep {
             conduction_deg: strategy.conduction_deg(),
         };
+        self.run_table = self.table;
         self.pending_table = Some(self.table);
         Ok(())
     }
@@ -337,6 +345,7 @@ impl Chip {
         self.cv = (self.control.startup_duty * f64::from(self.top)).round() as u32;
         self.linear = false;
         self.speed.reset();
+        self.measurements_seen = 0;
         self.supervisor.reset();
         self.speed_pi.set_integrator(0.0);
         self.i_ref = 0.0;
@@ -348,9 +357,24 @@ impl Chip {
         Ticks(now.next_edge(clocks::ALIGN).0 + n * clocks::ALIGN.0)
     }
 
+    /// The table from the hand-over until the first speed measurement: twelve-step no
+    /// wider than `startup_conduction_deg`.
+    fn startup_table(&self) -> Table {
+        match self.run_table {
+            Table::TwelveStep { conduction_deg } => Table::TwelveStep {
+                conduction_deg: conduction_deg.min(self.control.startup_conduction_deg),
+            },
+            t => t,
+        }
+    }
+
     fn hand_over(&mut self, now: Ticks) {
+        self.table = self.startup_table();
+        self.pending_table = None;
+        self.shifter.set_table(self.table);
         let t60 = counts(self.control.handover_t60_s, clocks::COMMUTATION).min(COUNTER_MAX);
-        self.shifter.hand_over(HANDOVER_SECTOR, now, t60);
+        // u was driven by the last alignment pattern: it may still carry current.
+        self.shifter.hand_over(HANDOVER_SECTOR, now, t60, false);
         self.mode = Mode::Running;
         self.crossings = 0;
         self.fg = self.table.fg(self.shifter.state());
@@ -370,8 +394,17 @@ impl Chip {
     }
 
     /// Start of the linear-region window before the expected crossing (ND/LM, once t_60
-    /// is measured).
+    /// and the speed are measured).
+    ///
+    /// Not while starting: the window holds full voltage from the *expected* crossing to
+    /// the detected one, and near standstill the expected instant is a poor guess (t_60
+    /// changes by tens of % per sector), so a late crossing would put the whole supply on
+    /// a winding of a few ohms for tens of degrees (≈ 2.5 A on the built-in motor, five
+    /// times the start-up current) and throw the rotor out of step.
     fn window_start(&self) -> Option<Ticks> {
+        if self.starting() {
+            return None;
+        }
         let deg = self.guard.linear_window_deg(self.speed.rpm())?;
         let expected = self.shifter.expected_crossing()?;
         let (t60, _) = self.shifter.t60();
@@ -384,7 +417,14 @@ impl Chip {
         Ticks(self.fg_since.next_edge(clocks::STEP_MISS).0 + n * clocks::STEP_MISS.0)
     }
 
+    /// Whether the chip is still starting: closed loop, but no speed measured yet.
+    fn starting(&self) -> bool {
+        self.speed.measurements() == 0
+    }
+
     fn run(&mut self, now: Ticks, sensed: &Sensed) {
+        self.shifter
+            .set_confirmation(self.starting().then_some(self.control.startup_confirm_deg));
         self.shifter.poll(now);
         let z = sensed.zc(self.shifter.zd_phase());
         let level = self.guard.detect_level(now, z);
@@ -406,6 +446,11 @@ impl Chip {
             }
             self.fg = fg;
             self.fg_since = now;
+        }
+        if !self.starting() && self.table != self.run_table {
+            // Start-up is over: widen to the configured angle (from the next crossing).
+            self.table = self.run_table;
+            self.pending_table = Some(self.table);
         }
         if now >= self.next_pi {
             let implausible = self.pi_update(sensed.current_code);
@@ -455,7 +500,8 @@ impl Chip {
             };
             self.supervisor.update(&Update {
                 shifter_rpm: 60.0 / (6.0 * sector_s * f64::from(self.pole_pairs)),
-                meter_rpm: new_reading.then(|| f64::from(self.speed.rpm())),
+                meter_rpm: (new_reading && self.speed.measurements() > 0)
+                    .then(|| f64::from(self.speed.rpm())),
                 duty_eff,
                 current_a: i,
                 torque_asked: self.i_ref > 0.0,
@@ -463,7 +509,7 @@ impl Chip {
             })
         };
         self.linear_seen = self.linear;
-        let i_ref = if self.speed.measurements() == 0 {
+        let i_ref = if self.starting() {
             self.control.start_current_a
         } else {
             let speed_error = self.speed_ref_rpm - f64::from(self.speed.rpm());
@@ -503,6 +549,11 @@ impl Chip {
                 }
                 let s = self.shifter.earliest_crossing();
                 if self.shifter.in_pre() && s > now {
+                    w = w.min(s);
+                }
+                if let Some(s) = self.shifter.confirmation_due()
+                    && s > now
+                {
                     w = w.min(s);
                 }
                 if self.shifter.in_pre()
@@ -666,11 +717,24 @@ mod tests {
             name: StrategyName::TwelveStepRaw,
             ..StrategyParams::default()
         };
-        let mut c = Chip::new(ControlParams::default(), raw, 6, 0.5 / 4095.0, 2000).unwrap();
+        // Without start-up confirmation, as once a speed is measured: a crossing is then
+        // taken at the tick that sees it, and the pre part may declare one phase alone.
+        let control = ControlParams {
+            startup_confirm_deg: 0,
+            ..ControlParams::default()
+        };
+        let mut c = Chip::new(control, raw, 6, 0.5 / 4095.0, 2000).unwrap();
         let mut now = Ticks::ZERO;
         let mut cmd = c.tick(now, &Sensed::default());
         while c.status().mode != Mode::Running {
             cmd = next_declared(&mut c, &mut now, &cmd, false);
+        }
+        // The floating phase u was driven until the hand-over: the detector arms on the
+        // pre level lasting the blanking time.
+        let until = Ticks(now.0 + BLANKING.0 + clocks::COMMUTATION.0);
+        while now < until {
+            let pre = !c.shifter.sector().rising;
+            cmd = next_declared(&mut c, &mut now, &cmd, pre);
         }
         // In the pre part, Z_d at the pre-crossing level until a crossing is plausible.
         let post_level = c.shifter.sector().rising;
@@ -722,6 +786,29 @@ mod tests {
         assert_eq!(c.table(), Table::SixStep);
     }
 
+    /// From the hand-over until the first speed measurement the twelve-step angle is at
+    /// most `startup_conduction_deg` (150°): 165° starts at 150°, 135° stays 135°.
+    #[test]
+    fn a_wide_conduction_angle_starts_at_the_startup_angle() {
+        for (angle, start) in [(165.0, 150.0), (135.0, 135.0)] {
+            let df = StrategyParams {
+                conduction_angle_deg: Some(angle),
+                ..StrategyParams::default()
+            };
+            let mut c = Chip::new(ControlParams::default(), df, 6, 0.5 / 4095.0, 2000).unwrap();
+            let want = |deg| Table::TwelveStep {
+                conduction_deg: deg,
+            };
+            assert_eq!(c.table(), want(angle));
+            let mut now = Ticks::ZERO;
+            let mut cmd = c.tick(now, &Sensed::default());
+            while c.status().mode != Mode::Running {
+                cmd = next(&mut c, &mut now, &cmd);
+            }
+            assert_eq!(c.table(), want(start), "configured {angle}°");
+        }
+    }
+
     #[test]
     fn start_is_debounced_for_31_master_clocks() {
         let mut c = chip(5);
@@ -763,11 +850,12 @@ mod tests {
                 assert_eq!(flag_of(&cmd.pattern), Some(flags[k]), "step {}", k + 1);
             }
         }
-        // Hand-over: closed loop in state 8 (the last alignment pattern, w floating).
+        // Hand-over: closed loop in state 12 (w→v, u floating), the state for 330..360°,
+        // where the last alignment pattern v→u holds the rotor (its zero-torque point).
         assert_eq!(c.status().mode, Mode::Running);
-        assert_eq!(c.status().state, 8);
-        assert_eq!(flag_of(&cmd.pattern), Some(0b0001));
-        assert!(cmd.watch.w && !cmd.watch.u && !cmd.watch.v);
+        assert_eq!(c.status().state, 12);
+        assert_eq!(flag_of(&cmd.pattern), Some(0b0011));
+        assert!(cmd.watch.u && !cmd.watch.v && !cmd.watch.w);
         let total_s = Ticks(ends[2]).seconds();
         assert!(
             (total_s - (0.7 + 0.038 + 0.015)).abs() < 0.5e-3,

@@ -78,6 +78,24 @@ pub struct ControlParams {
     /// to closed loop, before it has measured one \[s\]. Default 0.015. Rule: 1e-5..=0.02
     /// (the 15-bit 0.64 µs counter holds at most 20.97 ms).
     pub handover_t60_s: f64,
+    /// Crossing confirmation from the hand-over until the first FG speed measurement
+    /// [whole electrical degrees]: a crossing needs the post-crossing level to dominate
+    /// the comparator for this angle of the last 60° time (an up/down count of 0.64 µs
+    /// clocks), and is then dated back to where that began. Near standstill the back-EMF
+    /// is smaller than the comparator's PWM-edge glitches, which outlast the digital
+    /// filter; without this a glitch taken at the earliest plausible instant shortens
+    /// t_60 by a quarter per sector, a runaway the rotor cannot follow. Default 2 (a glitch
+    /// of a few µs per PWM edge never fills 2° of a start-up sector, ≥ 20 µs below 1700
+    /// rpm). 0 turns it off. Rule: 0..=15.
+    pub startup_confirm_deg: u32,
+    /// Conduction angle of the twelve-step strategies from the hand-over until the first
+    /// FG speed measurement [electrical degrees], when it is narrower than
+    /// `strategy.conduction_angle_deg`; the configured angle takes over at the first
+    /// crossing after that measurement. A wide angle leaves a short floating window
+    /// (180° − angle: 15° at 165°) that, at start-up speeds, begins before the rotor has
+    /// reached it when the commutation timing, still learning t_60, is late, so the
+    /// crossing is missed. Default 150 (the chip's). Rule: 120 ≤ x < 180.
+    pub startup_conduction_deg: f64,
     /// Step-miss limit: FG_c unchanged for longer than this raises an error and restarts
     /// \[s\]. Default 0.05 (below 100 rpm). Rule: 0.001..=10.
     pub step_miss_s: f64,
@@ -138,6 +156,8 @@ impl Default for ControlParams {
             startup_duty: 0.2,
             align_s: [0.7, 0.038, 0.015],
             handover_t60_s: 0.015,
+            startup_confirm_deg: 2,
+            startup_conduction_deg: 150.0,
             step_miss_s: 0.05,
             max_restarts: 5,
             supervisor: true,
@@ -224,6 +244,22 @@ impl ControlParams {
             0.02,
             "must be in 1e-5..=0.02 s (the 15-bit 0.64 µs counter)",
         )?;
+        if self.startup_confirm_deg > 15 {
+            return Err(ParamError::new(
+                "control.startup_confirm_deg",
+                self.startup_confirm_deg,
+                "must be 0..=15 electrical degrees",
+            ));
+        }
+        if !(self.startup_conduction_deg.is_finite()
+            && (120.0..180.0).contains(&self.startup_conduction_deg))
+        {
+            return Err(ParamError::new(
+                "control.startup_conduction_deg",
+                self.startup_conduction_deg,
+                "must be in 120 <= x < 180 electrical degrees",
+            ));
+        }
         check_range(
             "control.step_miss_s",
             self.step_miss_s,

@@ -11,14 +11,29 @@
 //! that phase still carries current, which freewheels through a diode and clamps the
 //! terminal to a rail: its comparator shows the *post*-crossing level for a while. A
 //! crossing is therefore accepted only once the detector is *armed*: it has seen the
-//! pre-crossing level either begin after the commutation (the freewheel ended) or last
-//! longer than the blanking time (there was no freewheel, and the level it saw was not
-//! left over from before the commutation).
+//! pre-crossing level either begin later than the blanking time after the commutation (the
+//! freewheel ended) or last longer than the blanking time (there was no freewheel, and the
+//! level it saw was not left over from before the commutation). A pre level beginning
+//! sooner proves nothing: the newly selected comparator's input filter still settles from
+//! the phase's driven voltage, and the digital filter still holds the previous phase's
+//! samples, for a few µs after the switch.
 //!
 //! **Plausibility.** A crossing earlier than ¾·t_60 after the last one is not accepted:
 //! the rotor cannot shorten its 60° time by a quarter within one sector, so such an edge is
 //! interference (at low speed the comparator's PWM-edge glitches outlast any filter), and
 //! accepting it would shorten t_60 and make the next false crossing likelier still.
+//!
+//! **Confirmation at low speed (start-up).** Below a few hundred rpm the back-EMF is
+//! smaller than the comparator's PWM-edge glitches, which outlast any short filter; a glitch
+//! to the post level at the earliest plausible instant is then taken as a crossing, t_60
+//! shrinks by a quarter, and the next glitch repeats it: a geometric runaway (Σ 0.75^k
+//! converges, so commutation reaches any speed within 3·t_60) that leaves the rotor behind
+//! while FG keeps toggling, so no step miss is seen. While confirmation is on, an up/down
+//! counter integrates the level at every clock (+1 post, −1 pre, floored at 0), and a
+//! crossing needs it to reach N_c = t_60·θc/60° clocks. A glitch adds a few counts per
+//! PWM edge and the pre level between edges removes them; a real crossing fills the
+//! counter in ≈ N_c clocks. The crossing is dated back to where the counter last left 0,
+//! so the confirmation delays the detection but not the commutation instants.
 //!
 //! **Demagnetisation timeout.** With a long freewheel (high current, low duty) the crossing
 //! can pass while the terminal is still clamped, so the pre level is never seen. Once the
@@ -61,6 +76,14 @@ pub struct PhaseShifter {
     pre_run: Option<Ticks>,
     forced: u64,
     last_forced: bool,
+    /// Confirmation angle θc [whole electrical degrees], when on.
+    confirm: Option<u32>,
+    /// Confirmation counter [clocks] and the level it integrates since `integ_at`.
+    integ: u64,
+    integ_at: Ticks,
+    integ_level: bool,
+    /// Where the counter last left 0.
+    integ_from: Ticks,
 }
 
 const CLK: u64 = clocks::COMMUTATION.0;
@@ -83,7 +106,55 @@ impl PhaseShifter {
             pre_run: None,
             forced: 0,
             last_forced: false,
+            confirm: None,
+            integ: 0,
+            integ_at: Ticks::ZERO,
+            integ_level: false,
+            integ_from: Ticks::ZERO,
         }
+    }
+
+    /// Turns crossing confirmation on over θc = `deg` electrical degrees (N_c = t_60·θc/60
+    /// clocks, see the module doc), or off with `None` or 0.
+    pub fn set_confirmation(&mut self, deg: Option<u32>) {
+        self.confirm = deg.filter(|&d| d > 0);
+    }
+
+    /// N_c [clocks] while confirmation is on.
+    fn confirm_counts(&self) -> Option<u64> {
+        self.confirm.map(|d| (self.t60 * u64::from(d) / 60).max(1))
+    }
+
+    fn clear_confirmation(&mut self, now: Ticks) {
+        self.integ = 0;
+        self.integ_at = now;
+        self.integ_level = !self.sector().rising;
+        self.integ_from = now;
+    }
+
+    /// Integrates the level held since the last observation up to clock edge `now`.
+    fn integrate(&mut self, now: Ticks, level: bool) {
+        let n = now.0.saturating_sub(self.integ_at.0) / CLK;
+        if n > 0 {
+            if self.integ_level == self.sector().rising {
+                if self.integ == 0 {
+                    self.integ_from = self.integ_at;
+                }
+                self.integ += n;
+            } else {
+                self.integ = self.integ.saturating_sub(n);
+            }
+        }
+        self.integ_at = now;
+        self.integ_level = level;
+    }
+
+    /// While confirmation is on and the post level is held: the instant the counter
+    /// reaches N_c (the controller must be woken there).
+    pub fn confirmation_due(&self) -> Option<Ticks> {
+        let nc = self.confirm_counts()?;
+        (self.in_pre && self.integ_level == self.sector().rising)
+            .then(|| Ticks(self.integ_at.0 + nc.saturating_sub(self.integ) * CLK))
     }
 
     /// Replaces the table (same sectors, another post fraction), effective from the next
@@ -92,11 +163,11 @@ impl PhaseShifter {
         self.table = table;
     }
 
-    /// Starts closed-loop operation at `now` in the pre part of `sector`, whose floating
-    /// phase has been floating long enough to carry no current (the last alignment step):
-    /// the detector is armed at once, and t_60 is assumed to be `t60_counts` until two
-    /// crossings have been measured.
-    pub fn hand_over(&mut self, sector: usize, now: Ticks, t60_counts: u64) {
+    /// Starts closed-loop operation at `now` in the pre part of `sector`; t_60 is assumed
+    /// to be `t60_counts` until two crossings have been measured. `armed`: the floating
+    /// phase has floated long enough to carry no current, so the detector is armed at
+    /// once; otherwise it arms as after any commutation.
+    pub fn hand_over(&mut self, sector: usize, now: Ticks, t60_counts: u64, armed: bool) {
         self.sector = sector % 6;
         self.in_pre = true;
         self.entered_pre = now;
@@ -105,9 +176,10 @@ impl PhaseShifter {
         self.measured = false;
         self.crossings_seen = 0;
         self.post_end = Ticks::NEVER;
-        self.armed = true;
+        self.armed = armed;
         self.pre_run = None;
         self.last_forced = false;
+        self.clear_confirmation(now);
     }
 
     /// Runs the post → pre commutation if it is due at `now`.
@@ -124,6 +196,7 @@ impl PhaseShifter {
         self.entered_pre = now;
         self.armed = false;
         self.pre_run = None;
+        self.clear_confirmation(now);
     }
 
     /// Feeds the detection level (after the guard's filter) seen at clock edge `now`.
@@ -132,41 +205,55 @@ impl PhaseShifter {
             return ShiftEvent::None;
         }
         let post_level = self.sector().rising;
+        self.integrate(now, level);
         if level != post_level {
             if self.pre_run.is_none() {
                 self.pre_run = Some(now);
             }
             return ShiftEvent::None;
         }
+        // A pre level that begins within the blanking time after the commutation may be
+        // the newly selected comparator (or the filter holding the previous phase's
+        // samples) settling, not the end of a freewheel: it arms only by lasting.
         if let Some(start) = self.pre_run.take()
-            && (start > self.entered_pre || now.0 - start.0 >= self.blank.0)
+            && (start.0 >= self.entered_pre.0 + self.blank.0 || now.0 - start.0 >= self.blank.0)
         {
             self.armed = true;
         }
         let overdue = self.demag_timeout().is_some_and(|e| now >= e);
         let plausible = now >= self.earliest_crossing();
-        if (self.armed || overdue) && plausible {
+        let (confirmed, at) = match self.confirm_counts() {
+            // Dated back to where the counter left 0, but not before it was plausible.
+            Some(nc) => (
+                self.integ >= nc,
+                self.integ_from.max(self.earliest_crossing()).min(now),
+            ),
+            None => (true, now),
+        };
+        if (self.armed || overdue) && plausible && confirmed {
             self.last_forced = !self.armed;
             self.forced += u64::from(self.last_forced);
-            self.cross(now);
+            self.cross(at, now);
             return ShiftEvent::Crossing;
         }
         ShiftEvent::None
     }
 
-    fn cross(&mut self, now: Ticks) {
+    /// A crossing dated `at`, accepted at clock edge `now` (`at` ≤ `now`).
+    fn cross(&mut self, at: Ticks, now: Ticks) {
         self.crossings_seen = self.crossings_seen.saturating_add(1);
         if self.crossings_seen >= 2 {
-            self.t60 = ((now.0 - self.last_cross.0) / CLK).clamp(1, COUNTER_MAX);
+            self.t60 = (at.0.saturating_sub(self.last_cross.0) / CLK).clamp(1, COUNTER_MAX);
             self.measured = true;
         }
-        self.last_cross = now;
+        self.last_cross = at;
         self.sector = (self.sector + 1) % 6;
         let (num, den) = self.table.post_fraction();
         let post = self.t60 * num / den;
-        self.post_end = Ticks(now.0 + post * CLK);
+        // A crossing dated back may leave less than its post part, or none.
+        self.post_end = Ticks(at.0 + post * CLK).max(now);
         self.in_pre = false;
-        if post == 0 {
+        if self.post_end <= now {
             self.enter_pre(now);
         }
     }
@@ -233,10 +320,11 @@ impl PhaseShifter {
 
     /// Whether the next crossing could leave an empty post part: its t_60 is the present
     /// one (fewer than two crossings measured) or at least ¾ of it (an earlier crossing is
-    /// not plausible), and at least one clock.
+    /// not plausible), and at least one clock; or confirmation is on.
     fn post_may_be_empty(&self) -> bool {
         let (num, den) = self.table.post_fraction();
-        (self.t60 * 3 / 4).max(1) * num / den == 0
+        // A confirmed crossing is dated back and may have used up its post part.
+        self.confirm.is_some() || (self.t60 * 3 / 4).max(1) * num / den == 0
     }
 
     /// Last t_60 [0.64 µs clocks] and whether it was measured (else the hand-over value).
@@ -297,7 +385,7 @@ mod tests {
     fn run_clean(table: Table, t60: u64, n: u64) -> Vec<(u64, ShiftEvent, u8)> {
         let mut s = PhaseShifter::new(table, Ticks(320));
         // Hand over in sector 0 at t = 0, before the crossing at 60° = t60 clocks.
-        s.hand_over(0, Ticks(0), t60);
+        s.hand_over(0, Ticks(0), t60, true);
         let mut log = Vec::new();
         let mut crossed = 0u64;
         let mut t = 0;
@@ -335,7 +423,7 @@ mod tests {
             },
         ] {
             let mut s = PhaseShifter::new(table, Ticks(320));
-            s.hand_over(0, Ticks(0), t60);
+            s.hand_over(0, Ticks(0), t60, true);
             let mut declared = s.zd_reads();
             let (mut crossed, mut single) = (0u64, 0u32);
             for k in 1..=8 * t60 {
@@ -480,6 +568,65 @@ mod tests {
         assert_eq!(s.observe(at, post), ShiftEvent::Crossing);
     }
 
+    /// The pre level appearing within the blanking time after a commutation (the newly
+    /// selected comparator settling) does not arm the detector: the freewheel clamp that
+    /// follows is not a crossing.
+    #[test]
+    fn a_pre_level_settling_right_after_the_commutation_does_not_arm() {
+        let mut s2 = handed_over_150();
+        // Reach a fresh commutation: crossing at 32 000, post part of 500 clocks.
+        let post = s2.sector().rising;
+        s2.observe(Ticks(32_000), post);
+        let tc = s2.post_end().unwrap();
+        s2.poll(tc);
+        let post = s2.sector().rising;
+        // Clamped (post) at the commutation, pre for 2 clocks 1.3 µs later (settling), then
+        // clamped again well after the plausible instant: no crossing.
+        assert_eq!(s2.observe(tc, post), ShiftEvent::None);
+        assert_eq!(s2.observe(Ticks(tc.0 + 64), !post), ShiftEvent::None);
+        let late = Ticks(s2.earliest_crossing().0 + 3200);
+        assert_eq!(s2.observe(Ticks(tc.0 + 128), post), ShiftEvent::None);
+        assert_eq!(s2.observe(late, post), ShiftEvent::None);
+        assert!(!s2.armed());
+    }
+
+    /// With confirmation on (θc = 2°: N_c = 1000·2/60 = 33 clocks), post-level glitches of
+    /// 5 clocks once per 125 clocks (one 80 µs PWM period) never make a crossing, and a
+    /// lasting post level makes one dated where it began, with the commutation half a t_60
+    /// after that.
+    #[test]
+    fn confirmation_rejects_edge_glitches_and_dates_a_real_crossing_back() {
+        let mut s = measured();
+        s.set_confirmation(Some(2));
+        let t_com = s.last_crossing().0 + 500 * CLK;
+        let post = s.sector().rising;
+        let mut k = t_com / CLK + 20;
+        let real = (s.last_crossing().0 + 1000 * CLK) / CLK;
+        while k < real {
+            let level = if k % 125 < 5 { post } else { !post };
+            assert_eq!(
+                s.observe(Ticks(k * CLK), level),
+                ShiftEvent::None,
+                "clock {k}"
+            );
+            k += 1;
+        }
+        let mut crossed = None;
+        while crossed.is_none() {
+            if s.observe(Ticks(k * CLK), post) == ShiftEvent::Crossing {
+                crossed = Some(k);
+            }
+            k += 1;
+        }
+        assert_eq!(
+            crossed,
+            Some(real + 33),
+            "detected N_c clocks after it began"
+        );
+        assert_eq!(s.last_crossing(), Ticks(real * CLK), "dated back");
+        assert_eq!(s.post_end(), Some(Ticks((real + 500) * CLK)));
+    }
+
     /// A 150° shifter handed over in sector 0 at t = 0 with t_60 = 1000 clocks.
     fn handed_over_150() -> PhaseShifter {
         let mut s = PhaseShifter::new(
@@ -488,7 +635,7 @@ mod tests {
             },
             Ticks(320),
         );
-        s.hand_over(0, Ticks(0), 1000);
+        s.hand_over(0, Ticks(0), 1000, true);
         s
     }
 

@@ -66,6 +66,7 @@ impl SpeedMeter {
         self.start = None;
         self.edges = 0;
         self.rpm = 0;
+        self.measurements = 0;
     }
 }
 
