@@ -346,11 +346,11 @@ mod tests {
     fn in_sync_follows_the_true_rotor_not_the_chip() {
         let (sync, rpm) = in_sync_after(&[], 1.5);
         assert_eq!(sync, 1.0, "nominal drive at {rpm} rpm");
-        // Raised resistance, the chip as published: locked on false crossings, the chip
-        // commutates on while the rotor stands still.
+        // 500 rpm, below what the 15-bit meter reads, the chip as published: it lets the
+        // rotor coast to a stop and then commutates on false crossings.
         let (sync, rpm) = in_sync_after(
-            &[("motor.resistance_ohm", 2.8), ("control.supervisor", 0.0)],
-            1.5,
+            &[("speed_ref_rpm", 500.0), ("control.supervisor", 0.0)],
+            3.0,
         );
         assert_eq!(sync, 0.0, "locked on false crossings at {rpm} rpm");
         assert!(rpm.abs() < 100.0, "{rpm}");
