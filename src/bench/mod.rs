@@ -94,6 +94,8 @@ pub struct Plan {
     pub load: (f64, f64, f64, f64),
     /// Whether to search each strategy's speed range.
     pub ranges: bool,
+    /// Starts of each strategy in the start-up Monte-Carlo (0: none), and its seed.
+    pub startup: (usize, u64),
     /// The chip's speed meter in every run but the range searches.
     pub meter: range::Meter,
     /// The meters each strategy's range is searched with.
@@ -109,6 +111,7 @@ impl Default for Plan {
             step: StepPlan::default(),
             load: (3000.0, 4e-4, 2.5, 4.0),
             ranges: true,
+            startup: (10, 1),
             meter: range::Meter::WIDE,
             range_meters: vec![range::Meter::WIDE, range::Meter::AS_PUBLISHED],
         }
@@ -276,6 +279,20 @@ pub struct StepRun {
     pub speed: Vec<(f64, f64)>,
 }
 
+/// A start-up Monte-Carlo of one strategy (plugins are not sampled).
+#[derive(Clone, Debug, Serialize)]
+pub struct StartupResult {
+    /// Variant label.
+    pub variant: String,
+    /// The speed command of every start \[rpm\]: 3000, or 6000 for ND, whose linear
+    /// region alone drives the motor above ≈ 4700 rpm.
+    pub command_rpm: f64,
+    /// The tolerances sampled.
+    pub spread: startup::Spread,
+    /// What came of it.
+    pub stats: startup::StartupStats,
+}
+
 /// A load-step response.
 #[derive(Clone, Debug, Serialize)]
 pub struct LoadRun {
@@ -316,6 +333,8 @@ pub struct Comparison {
     pub steps: Vec<StepRun>,
     /// Load steps.
     pub loads: Vec<LoadRun>,
+    /// Start-up Monte-Carlo per strategy.
+    pub startups: Vec<StartupResult>,
     /// Crossing traces (not in the JSON; plotted).
     #[serde(skip)]
     pub crossings: Vec<CrossingTrace>,
@@ -330,6 +349,7 @@ enum Job {
     Range(usize, range::Meter),
     Step(usize, usize, AntiWindup),
     Load(usize),
+    Startup(usize),
 }
 
 enum Done {
@@ -337,6 +357,7 @@ enum Done {
     Range(Range),
     Step(StepRun),
     Load(LoadRun),
+    Startup(StartupResult),
 }
 
 /// Runs `plan` for every variant on `base` (the motor, power stage, sensing and control
@@ -368,6 +389,9 @@ pub fn compare(
             }
         }
         jobs.push(Job::Load(v));
+        if plan.startup.0 > 0 && variants[v].plugin.is_none() {
+            jobs.push(Job::Startup(v));
+        }
     }
     let config_of = |v: usize| {
         let mut c = plan.meter.apply(base);
@@ -457,6 +481,29 @@ pub fn compare(
                     speed: out.speed,
                 })
             }
+            Job::Startup(v) => {
+                let (samples, seed) = plan.startup;
+                let mut c = config_of(v);
+                // ND's full-voltage window alone drives the motor above ≈ 4700 rpm.
+                c.control.speed_ref_rpm = if c.strategy.name == StrategyName::TwelveStepNd {
+                    6000.0
+                } else {
+                    3000.0
+                };
+                Done::Startup(StartupResult {
+                    variant: label(v),
+                    command_rpm: c.control.speed_ref_rpm,
+                    spread: startup::Spread::default(),
+                    stats: startup::monte_carlo(
+                        &c,
+                        &variants[v].strategy,
+                        samples,
+                        seed,
+                        startup::Spread::default(),
+                        1,
+                    )?,
+                })
+            }
             Job::Load(v) => {
                 let (rpm, nm, at, dur) = plan.load;
                 let mut sc = Scenario::hold(config_of(v), rpm, dur);
@@ -481,6 +528,7 @@ pub fn compare(
         ranges: Vec::new(),
         steps: Vec::new(),
         loads: Vec::new(),
+        startups: Vec::new(),
         crossings: Vec::new(),
         wall_s: 0.0,
         threads,
@@ -494,6 +542,7 @@ pub fn compare(
             Done::Range(r) => cmp.ranges.push(r),
             Done::Step(s) => cmp.steps.push(s),
             Done::Load(l) => cmp.loads.push(l),
+            Done::Startup(x) => cmp.startups.push(x),
         }
     }
     cmp.wall_s = wall.elapsed().as_secs_f64();

@@ -575,6 +575,7 @@ fn markdown(c: &Comparison, config: &DriveConfig, crossings: &[String]) -> Strin
             x.restarts
         );
     }
+    startup_section(c, &mut s);
     let _ = writeln!(s, "\n## Plots\n");
     for f in [
         "speed_step.svg",
@@ -588,4 +589,63 @@ fn markdown(c: &Comparison, config: &DriveConfig, crossings: &[String]) -> Strin
         let _ = writeln!(s, "![{f}]({f})\n");
     }
     s
+}
+
+fn startup_section(c: &Comparison, s: &mut String) {
+    let Some(first) = c.startups.first() else {
+        return;
+    };
+    let sp = first.spread;
+    let _ = writeln!(
+        s,
+        "\n## Start-up over tolerances\n\nEach strategy started {} times from standstill (seed {}), every start on a drive drawn with R, L_self, M, λr, J, both frictions and V_DD each scaled uniformly within ±{:.0} % and each comparator offset within ±{:.0} mV, with a fresh noise seed. A start succeeds when the first hand-over leads to closed loop with no restart and the true mean speed over the last {} s of a {} s run is within {:.0} % of the command.\n\n| strategy | command rpm | success | hand-over s (mean) | within 5 % s (mean / max) | failed starts (R Ω, V_DD V, restarts, mean rpm) |\n|---|---:|---:|---:|---:|---|",
+        c.plan.startup.0,
+        c.plan.startup.1,
+        100.0 * sp.relative,
+        1e3 * sp.offset_v,
+        super::startup::STEADY_S,
+        super::startup::RUN_S,
+        100.0 * super::startup::TOLERANCE,
+    );
+    let mean = |v: &[f64]| {
+        if v.is_empty() {
+            "–".to_string()
+        } else {
+            format!("{:.3}", v.iter().sum::<f64>() / v.len() as f64)
+        }
+    };
+    for x in &c.startups {
+        let st = &x.stats;
+        let failed: Vec<String> = st
+            .failures
+            .iter()
+            .map(|f| {
+                format!(
+                    "{:.2} Ω, {:.1} V, {}, {:.0}",
+                    f.sampled.resistance_ohm, f.sampled.supply_v, f.restarts, f.mean_rpm
+                )
+            })
+            .collect();
+        let _ = writeln!(
+            s,
+            "| {} | {:.0} | {}/{} ({:.0} %) | {} | {} / {} | {} |",
+            x.variant,
+            x.command_rpm,
+            st.successes,
+            st.runs,
+            100.0 * st.successes as f64 / st.runs.max(1) as f64,
+            mean(&st.handover_s),
+            mean(&st.within_s),
+            st.within_s
+                .iter()
+                .copied()
+                .fold(None, |m: Option<f64>, t| Some(m.map_or(t, |m| m.max(t))))
+                .map_or("–".into(), |t| format!("{t:.3}")),
+            if failed.is_empty() {
+                "–".to_string()
+            } else {
+                failed.join("; ")
+            }
+        );
+    }
 }

@@ -249,6 +249,7 @@ fn compare(a: CompareArgs, plugins: Vec<PluginLibrary>) -> Result<(), String> {
     if a.quick {
         plan.grid_rpm = vec![plan.trace_rpm];
         plan.ranges = false;
+        plan.startup.0 = 0;
     }
     let threads = a.threads.map_or_else(pool::default_threads, usize::from);
     let mut variants = bench::standard_variants(&cfg.strategy);
