@@ -82,6 +82,46 @@ impl TimeStats {
     }
 }
 
+/// Mean and standard deviation of equally weighted samples (population form).
+#[derive(Clone, Debug, Default)]
+pub struct SampleStats {
+    n: u64,
+    sum: f64,
+    sum_sq: f64,
+}
+
+impl SampleStats {
+    /// Adds one sample.
+    pub fn push(&mut self, x: f64) {
+        self.n += 1;
+        self.sum += x;
+        self.sum_sq += x * x;
+    }
+
+    /// Samples so far.
+    pub fn count(&self) -> u64 {
+        self.n
+    }
+
+    /// Mean, 0 when empty.
+    pub fn mean(&self) -> f64 {
+        if self.n > 0 {
+            self.sum / self.n as f64
+        } else {
+            0.0
+        }
+    }
+
+    /// Standard deviation around the mean, 0 with fewer than two samples.
+    pub fn std_dev(&self) -> f64 {
+        if self.n < 2 {
+            return 0.0;
+        }
+        let m = self.mean();
+        (self.sum_sq / self.n as f64 - m * m).max(0.0).sqrt()
+    }
+}
+
 /// Statistics of the commutation-angle error: the true electrical angle at each
 /// commutation minus the table boundary of the state entered, wrapped to ±180° [°].
 #[derive(Clone, Debug, Default, Serialize)]
@@ -273,6 +313,21 @@ mod tests {
         assert!((s.std_dev() - 3f64.sqrt()).abs() < 1e-12);
         assert_eq!(s.max(), 5.0);
         assert_eq!(TimeStats::default().mean(), 0.0);
+    }
+
+    #[test]
+    fn sample_stats_weigh_every_sample_equally() {
+        // 1, 2, 3, 6: mean 3, variance (4 + 1 + 0 + 9)/4 = 3.5.
+        let mut s = SampleStats::default();
+        assert_eq!((s.mean(), s.std_dev()), (0.0, 0.0));
+        s.push(1.0);
+        assert_eq!(s.std_dev(), 0.0, "one sample has no spread");
+        for x in [2.0, 3.0, 6.0] {
+            s.push(x);
+        }
+        assert_eq!(s.count(), 4);
+        assert_eq!(s.mean(), 3.0);
+        assert!((s.std_dev() - 3.5f64.sqrt()).abs() < 1e-12);
     }
 
     #[test]

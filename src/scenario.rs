@@ -3,7 +3,7 @@
 
 use crate::config::DriveConfig;
 use crate::drive::{BuildError, DriveEngine, build, build_plugin};
-use crate::metrics::{AngleErrors, TimeStats};
+use crate::metrics::{AngleErrors, SampleStats, TimeStats};
 use crate::verdict::{Ending, Judgement, VerdictRule, Witness};
 use drive_core::error::ParamError;
 use drive_core::{EngineError, Plant, StopReason, Ticks};
@@ -257,8 +257,8 @@ pub struct Summary {
     /// ∫Te² dt.
     pub torque_ripple_nm: f64,
     /// Low-frequency torque ripple, the vibration proxy [N·m]: standard deviation of the
-    /// torque's means over consecutive blocks of 1/`torque_lowpass_hz` in the window (exact
-    /// block means, from the plant's ∫Te dt). What a spindle's structure feels; the
+    /// torque's means over the whole blocks of 1/`torque_lowpass_hz` in the window (exact
+    /// block means, from the plant's ∫Te dt; 0 with fewer than two blocks). What a spindle's structure feels; the
     /// full-band figure is dominated by PWM and commutation ripple it filters out.
     pub torque_ripple_lf_nm: f64,
     /// The cut-off of `torque_ripple_lf_nm` \[Hz\].
@@ -266,12 +266,14 @@ pub struct Summary {
     /// Phase-current RMS over the window, √(mean(i_u² + i_v² + i_w²)/3) \[A\], exact: from
     /// the copper loss R·Σi² integrated by the plant.
     pub current_rms_a: f64,
-    /// Largest phase-current magnitude in the window \[A\] (currents change monotonically
-    /// between the engine's stops at PWM edges, commutations and diode events, so their
-    /// extremes fall on those stops).
+    /// Largest phase-current magnitude seen at the engine's whole-tick stops in the window
+    /// (PWM edges, controller ticks, samples) \[A\]. Between PWM edges a current changes
+    /// monotonically, so this is its peak wherever the PWM chops; at full duty (a linear
+    /// region, top speed) a peak between stops can be missed.
     pub current_peak_a: f64,
-    /// Commutation surge: the mean, over the states entered in the window, of the largest
-    /// phase-current magnitude during the state \[A\].
+    /// Commutation surge: the mean, over the states both entered and left in the window,
+    /// of the largest phase-current magnitude seen during the state (as `current_peak_a`)
+    /// \[A\].
     pub commutation_peak_a: f64,
     /// What the run came to, judged from the true rotor (see [`crate::verdict`]).
     pub verdict: crate::verdict::Verdict,
@@ -359,10 +361,12 @@ pub fn run(sc: &Scenario, mut on_row: impl FnMut(&TraceRow)) -> Result<Outcome, 
     let mut witness = Witness::new(sc.verdict_rule, table.states_per_turn());
     // Torque block means for the low-frequency ripple: blocks of 1/f_c on whole ticks.
     let block = Ticks(((1.0 / sc.torque_lowpass_hz / Ticks(1).seconds()).round() as u64).max(1));
-    let mut block_start: Option<f64> = None; // ∫Te dt at the last block boundary
-    let mut blocks = TimeStats::default();
-    let mut n_blocks = 0u64;
-    let (mut current_peak, mut state_peak) = (0.0f64, 0.0f64);
+    // The last block boundary and ∫Te dt there; a boundary is served once even when the
+    // engine calls back twice at its tick (an event on a sample instant).
+    let mut block_start: Option<(Ticks, f64)> = None;
+    let mut blocks = SampleStats::default();
+    // Peak |i| of the state in force, once a state has begun inside the window.
+    let (mut current_peak, mut state_peak) = (0.0f64, None::<f64>);
     let mut state_peaks = (0u64, 0.0f64);
     let (mut trace_on, mut steady_on) = (false, false);
     let mut record = Vec::with_capacity((sc.duration_s / sc.speed_record_s) as usize + 2);
@@ -410,8 +414,9 @@ pub fn run(sc: &Scenario, mut on_row: impl FnMut(&TraceRow)) -> Result<Outcome, 
                     && o.i.w.is_finite();
                 witness.instant(t, s.mode == Mode::Running, s.restarts, finite, steady);
                 if commutated {
-                    let (theta, boundary) =
-                        (o.theta_e.to_degrees(), table.state_start_deg(s.state));
+                    // The table in force: the chip may start narrower than configured.
+                    let boundary = e.controller.table().state_start_deg(s.state);
+                    let theta = o.theta_e.to_degrees();
                     witness.commutation(t, theta, boundary, o.speed_rpm, steady);
                     if steady {
                         angles.push(theta, boundary);
@@ -428,19 +433,20 @@ pub fn run(sc: &Scenario, mut on_row: impl FnMut(&TraceRow)) -> Result<Outcome, 
                     let i_max = o.i.u.abs().max(o.i.v.abs()).max(o.i.w.abs());
                     current_peak = current_peak.max(i_max);
                     if commutated {
-                        state_peaks.0 += 1;
-                        state_peaks.1 += state_peak;
-                        state_peak = i_max;
-                    }
-                    state_peak = state_peak.max(i_max);
-                    if e.now().0 % block.0 == 0 {
-                        let ti = e.plant.torque_integrals().0;
-                        if let Some(t0) = block_start {
-                            // Equal blocks: a sample-and-hold of one block per unit time.
-                            blocks.push(n_blocks as f64, (ti - t0) / block.seconds());
-                            n_blocks += 1;
+                        if let Some(p) = state_peak {
+                            state_peaks.0 += 1;
+                            state_peaks.1 += p;
                         }
-                        block_start = Some(ti);
+                        state_peak = Some(i_max);
+                    }
+                    state_peak = state_peak.map(|p| p.max(i_max));
+                    let now = e.now();
+                    if now.0 % block.0 == 0 && block_start.is_none_or(|b| now > b.0) {
+                        let ti = e.plant.torque_integrals().0;
+                        if let Some((_, t0)) = block_start {
+                            blocks.push((ti - t0) / block.seconds());
+                        }
+                        block_start = Some((now, ti));
                     }
                 }
             }

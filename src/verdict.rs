@@ -266,6 +266,10 @@ impl Witness {
         in_window: bool,
     ) {
         self.handed_over |= closed_loop;
+        if !closed_loop {
+            // A restart: the commutations before it do not carry over into a start.
+            self.streak.reset();
+        }
         if !finite && self.non_finite_at_s.is_none() {
             self.non_finite_at_s = Some(t_s);
         }
@@ -337,7 +341,10 @@ impl Witness {
                 ),
             );
         }
-        let restarts_in_window = end.restarts.0 - self.restarts_at_window.unwrap_or(end.restarts.0);
+        let restarts_in_window = end
+            .restarts
+            .0
+            .saturating_sub(self.restarts_at_window.unwrap_or(end.restarts.0));
         if restarts_in_window > 0 || self.window_left_closed_loop {
             return j(
                 Verdict::LostSync,
@@ -369,7 +376,8 @@ impl Witness {
                 ),
             );
         }
-        let off = (mean - cmd) / cmd.max(f64::MIN_POSITIVE);
+        // A command below 1 rpm is judged against 1 rpm (no stopped verdict yet).
+        let off = (mean - cmd) / cmd.max(1.0);
         if off.abs() > r.speed_tolerance {
             return j(
                 Verdict::OffSpeed,

@@ -163,9 +163,14 @@ pub fn turned(config: &DriveConfig, seed_rpm: f64, rpm: f64, at_s: f64) -> Scena
     sc
 }
 
+/// Whether a run held its command: verdict `running` and no restart in the whole run.
+pub fn holds(s: &Summary) -> bool {
+    s.verdict.is_running() && s.restarts == 0
+}
+
 fn judge(sc: &Scenario) -> Result<(bool, Summary), RunError> {
     let s = run(sc, |_| {})?.summary;
-    Ok((s.verdict.is_running() && s.restarts == 0, s))
+    Ok((holds(&s), s))
 }
 
 /// The limit a failed run at `rpm` sets: its verdict and reason (restarts named when the

@@ -1,5 +1,6 @@
 //! The comparison as a terminal table and a report folder (JSON, CSV, Markdown, SVG).
 
+use super::range::holds;
 use super::svg::{Panel, Series, chart};
 use super::{AntiWindup, Comparison, CrossingTrace};
 use crate::config::DriveConfig;
@@ -146,11 +147,6 @@ pub fn terminal_table(c: &Comparison) -> String {
     );
     let _ = writeln!(s, "wall time {:.1} s on {} threads", c.wall_s, c.threads);
     s
-}
-
-/// Whether a steady-state run held its command: its verdict is `running`.
-pub fn holds(s: &crate::scenario::Summary) -> bool {
-    s.verdict.is_running()
 }
 
 /// Writes `results.json`, `results.csv`, `report.md` and the SVG plots into `dir`,

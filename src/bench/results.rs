@@ -2,7 +2,7 @@
 //! again on the simulated drive, each with a table, a figure and what the simulation finds.
 //! Only runs judged `running` give figures; the others give their verdict.
 
-use super::range::{Limit, Range};
+use super::range::{Limit, Range, holds};
 use super::svg::{Panel, Series, chart};
 use super::{AntiWindup, Comparison};
 use crate::scenario::Summary;
@@ -31,7 +31,7 @@ fn grid_point<'a>(c: &'a Comparison, variant: &str, rpm: f64) -> Option<&'a Summ
 /// A figure of a running grid point, or its verdict.
 fn figure(s: Option<&Summary>, f: impl Fn(&Summary) -> String) -> String {
     match s {
-        Some(s) if s.verdict.is_running() => f(s),
+        Some(s) if holds(s) => f(s),
         Some(s) => format!("*{}*", s.verdict),
         None => "–".into(),
     }

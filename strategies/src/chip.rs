@@ -346,6 +346,7 @@ impl Chip {
         self.linear = false;
         self.speed.reset();
         self.measurements_seen = 0;
+        self.linear_seen = false;
         self.supervisor.reset();
         self.speed_pi.set_integrator(0.0);
         self.i_ref = 0.0;
