@@ -109,7 +109,7 @@ impl fmt::Display for Verdict {
 /// The thresholds of the verdict (see the module doc for the reasoning).
 #[derive(Copy, Clone, Debug, PartialEq, Serialize)]
 pub struct VerdictRule {
-    /// Tolerance of the true mean speed around the command [fraction]. Default 0.02.
+    /// Tolerance of the true mean speed around the command \[fraction\]. Default 0.02.
     pub speed_tolerance: f64,
     /// Largest |commutation-angle error| of a commutation in synchronism [electrical °].
     /// Default 30.

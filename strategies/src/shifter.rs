@@ -52,7 +52,7 @@
 use crate::table::{Sector, Table};
 use drive_core::{Abc, Pattern, Phase, Ticks, clocks};
 
-/// The 15-bit counters' limit [clocks].
+/// The 15-bit counters' limit \[clocks\].
 pub const COUNTER_MAX: u64 = (1 << 15) - 1;
 
 /// What [`PhaseShifter::poll`] and [`PhaseShifter::observe`] did.
@@ -84,7 +84,7 @@ pub struct PhaseShifter {
     forced: u64,
     /// Confirmation angle θc [whole electrical degrees], when on.
     confirm: Option<u32>,
-    /// Confirmation counter [clocks] and the level it integrates since `integ_at`.
+    /// Confirmation counter \[clocks\] and the level it integrates since `integ_at`.
     integ: u64,
     integ_at: Ticks,
     integ_level: bool,
@@ -125,7 +125,7 @@ impl PhaseShifter {
         self.confirm = deg.filter(|&d| d > 0);
     }
 
-    /// N_c [clocks] while confirmation is on.
+    /// N_c \[clocks\] while confirmation is on.
     fn confirm_counts(&self) -> Option<u64> {
         self.confirm.map(|d| (self.t60 * u64::from(d) / 60).max(1))
     }
