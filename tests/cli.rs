@@ -137,13 +137,31 @@ fn range_reports_bounds_around_the_default_speed_and_its_criterion() {
     assert!(out.status.success(), "{}", text(&out.stderr));
     let j: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
-    let (lo, hi) = (
-        j["min_rpm"].as_f64().unwrap(),
-        j["max_rpm"].as_f64().unwrap(),
-    );
+    // One range per meter: the 24-bit one that does not bind, then the published 15-bit.
+    let ranges = j.as_array().expect("a list of ranges");
+    assert_eq!(ranges.len(), 2);
+    let bounds = |r: &serde_json::Value| {
+        (
+            r["min_rpm"].as_f64().unwrap(),
+            r["max_rpm"].as_f64().unwrap(),
+        )
+    };
+    let (lo, hi) = bounds(&ranges[0]);
     assert!(lo < 2000.0 && hi > 6000.0 && hi <= 16000.0, "{lo} .. {hi}");
-    assert!(j["criterion"].as_str().unwrap().contains("2 %"));
-    assert_eq!(j["strategy"], "twelve-step-df");
+    // The 15-bit counter over 10 FG periods reads nothing below 39 062 500 / 32 767 =
+    // 1192 rpm: a lower command reads as too fast and is not held.
+    let (lo15, _) = bounds(&ranges[1]);
+    assert!(
+        lo15 >= 1150.0 && lo15 > lo,
+        "15-bit floor {lo15}, 24-bit {lo}"
+    );
+    for r in ranges {
+        assert!(r["criterion"].as_str().unwrap().contains("2 %"));
+        assert_eq!(r["strategy"], "twelve-step-df");
+        assert!(r["min_limit"]["verdict"].is_string(), "{r}");
+    }
+    assert!(ranges[0]["meter"].as_str().unwrap().contains("24-bit"));
+    assert!(ranges[1]["meter"].as_str().unwrap().contains("15-bit"));
 }
 
 #[test]

@@ -217,7 +217,8 @@ mod tests {
                 "torque_nm",
                 "duty",
                 "state",
-                "restarts"
+                "restarts",
+                "in_sync",
             ]
         );
     }

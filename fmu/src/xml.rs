@@ -274,10 +274,32 @@ mod tests {
         }
         assert!(x.contains("name=\"motor.resistance_ohm\""));
         assert!(x.contains("<Real unit=\"Ohm\" min=\"0.0\" start=\"2.2\"/>"));
-        // Appended last, so the older variables kept their value references.
-        let last = table().len() - 1;
+        // Appended after the plugin, in this order, so that every older variable kept its
+        // value reference.
+        let appended = [
+            "control.speed_anti_windup",
+            "control.speed_anti_windup_gain",
+            "in_sync",
+            "control.supervisor",
+            "control.supervisor_no_load_rpm",
+            "control.supervisor_emf_fraction",
+            "control.supervisor_current_a",
+            "control.supervisor_updates",
+            "control.supervisor_coast_rise",
+            "control.supervisor_locked_rotor_a",
+            "control.supervisor_locked_share",
+            "control.startup_confirm_deg",
+            "control.startup_conduction_deg",
+        ];
+        let n = table().len();
+        let tail: Vec<&str> = table()[n - appended.len()..]
+            .iter()
+            .map(|v| v.name)
+            .collect();
+        assert_eq!(tail, appended);
+        let plugin = n - appended.len() - 1;
         assert!(x.contains(&format!(
-            "name=\"strategy.plugin\" valueReference=\"{last}\""
+            "name=\"strategy.plugin\" valueReference=\"{plugin}\""
         )));
         assert!(x.contains("<String start=\"\"/>"));
     }
