@@ -42,7 +42,7 @@ pub const FLOOR_RESOLUTION_RPM: f64 = 5.0;
 /// Where the search starts; tried first, then a ladder if it fails.
 pub const SEEDS: [f64; 5] = [3000.0, 2000.0, 4500.0, 1000.0, 6000.0];
 
-/// The chip's FG speed meter (SPEC-style counter over k FG periods).
+/// The chip's FG speed meter (a counter over k FG periods).
 #[derive(Copy, Clone, Debug, PartialEq, Serialize)]
 pub struct Meter {
     /// How reports name it.

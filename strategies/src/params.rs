@@ -50,7 +50,7 @@ pub struct ControlParams {
     /// `current_limit_a`. Too much and the shifter, which times each commutation from the
     /// previous 60° interval, falls behind a rotor accelerating from near standstill.
     pub start_current_a: f64,
-    /// Back-calculation anti-windup on the current PI (the chip's, SPEC §6). Default true.
+    /// Back-calculation anti-windup on the current PI (the chip's). Default true.
     /// It acts only where the voltage command saturates at full duty, i.e. near top speed:
     /// below it the current PI reaches `current_limit_a` with duty to spare.
     pub anti_windup: bool,
@@ -59,7 +59,7 @@ pub struct ControlParams {
     pub anti_windup_gain: f64,
     /// Back-calculation anti-windup on the speed PI, at the current-command limit
     /// `current_limit_a`. Default false: the chip has none there (its speed PI only clamps
-    /// the integrator at the limit, SPEC §6), yet with the model's current limit this is
+    /// the integrator at the limit, as the chip does), yet with the model's current limit this is
     /// the PI that saturates in large speed steps and overloads.
     pub speed_anti_windup: bool,
     /// Back-calculation gain of the speed PI \[1\]: ui(k) = sat(ui(k−1) + Ki·e −
