@@ -9,7 +9,9 @@ pub mod bench;
 pub mod config;
 pub mod drive;
 pub mod metrics;
+pub mod profile;
 pub mod scenario;
+pub mod scenario_file;
 pub mod verdict;
 
 pub use config::{ConfigError, DriveConfig};

@@ -1,9 +1,12 @@
-//! One benchmark scenario: a drive from standstill under a speed-command and load-torque
-//! schedule, with steady-state metrics, a decimated speed record and an optional trace.
+//! One experiment: a drive from standstill under profiles of speed command, load and
+//! supply, with steady-state metrics, a decimated speed record and an optional trace.
+//! The library, `drive-bench run --scenario` (see [`crate::scenario_file`]) and the
+//! bench's own experiments all build this one type.
 
 use crate::config::DriveConfig;
 use crate::drive::{BuildError, DriveEngine, build, build_plugin};
 use crate::metrics::{AngleErrors, SampleStats, TimeStats};
+use crate::profile::{LoadProfile, Profile};
 use crate::verdict::{Ending, Judgement, VerdictRule, Witness};
 use drive_core::error::ParamError;
 use drive_core::{EngineError, Plant, StopReason, Ticks};
@@ -15,14 +18,19 @@ use strategies::{Mode, PluginLibrary};
 /// What to simulate.
 #[derive(Clone, Debug)]
 pub struct Scenario {
-    /// Plant, chip and strategy. `control.speed_ref_rpm` is the command from t = 0.
+    /// Plant, chip and strategy. Its `control.speed_ref_rpm` and `power_stage.supply_v`
+    /// are replaced by the profiles' values at t = 0.
     pub config: DriveConfig,
     /// Simulated time \[s\].
     pub duration_s: f64,
-    /// Later speed commands: (time \[s\], rpm), in time order.
-    pub speed_steps: Vec<(f64, f64)>,
-    /// Load torque on the shaft: (time \[s\], N·m), in time order; 0 before the first.
-    pub load_steps: Vec<(f64, f64)>,
+    /// Speed command \[rpm\].
+    pub speed_rpm: Profile,
+    /// The driven machine.
+    pub load: LoadProfile,
+    /// Supply V_DD \[V\]; `None` holds the config's.
+    pub supply_v: Option<Profile>,
+    /// Stair length of the profiles' ramps \[s\] (see [`crate::profile`]). Default 1 ms.
+    pub profile_update_s: f64,
     /// Start of the steady-state window \[s\]; it ends at `duration_s`.
     pub steady_from_s: f64,
     /// Trace sampling: period \[s\] and the window [from, to] in which rows are produced.
@@ -39,6 +47,14 @@ pub struct Scenario {
     pub torque_lowpass_hz: f64,
 }
 
+/// The longest run \[s\].
+pub const MAX_DURATION_S: f64 = 3600.0;
+/// The highest speed command \[rpm\].
+pub const MAX_COMMAND_RPM: f64 = 16383.0;
+
+/// The most points the speed record holds.
+const MAX_RECORD_POINTS: f64 = 1e7;
+
 /// Which trace rows to produce.
 #[derive(Copy, Clone, Debug)]
 pub struct TraceSpec {
@@ -50,6 +66,19 @@ pub struct TraceSpec {
     pub to_s: f64,
 }
 
+impl TraceSpec {
+    /// Rows the trace will have.
+    pub fn rows(&self) -> u64 {
+        let every = self.every_s.max(Ticks(1).seconds());
+        ((self.to_s - self.from_s).max(0.0) / every).floor() as u64 + 1
+    }
+
+    /// Its size as CSV, at [`TraceRow::TYPICAL_BYTES`] a row \[bytes\].
+    pub fn expected_bytes(&self) -> u64 {
+        self.rows().saturating_mul(TraceRow::TYPICAL_BYTES)
+    }
+}
+
 impl Scenario {
     /// A constant command of `rpm` for `duration_s`, steady state over the last third
     /// (at least the last 0.5 s).
@@ -59,8 +88,10 @@ impl Scenario {
         Scenario {
             config,
             duration_s,
-            speed_steps: Vec::new(),
-            load_steps: Vec::new(),
+            speed_rpm: Profile::constant(rpm),
+            load: LoadProfile::default(),
+            supply_v: None,
+            profile_update_s: 1e-3,
             steady_from_s: (duration_s * 2.0 / 3.0).min(duration_s - 0.5).max(0.0),
             trace: None,
             speed_record_s: 1e-3,
@@ -70,13 +101,14 @@ impl Scenario {
         }
     }
 
-    /// Checks the schedule (the config is checked when the drive is built).
+    /// Checks every value, the config's included: nothing is simulated with a value that
+    /// breaks its rule.
     pub fn validate(&self) -> Result<(), ParamError> {
         drive_core::error::check_range(
             "duration_s",
             self.duration_s,
             1e-6,
-            3600.0,
+            MAX_DURATION_S,
             "must be > 0 and <= 3600 s",
         )?;
         drive_core::error::check_range(
@@ -86,39 +118,57 @@ impl Scenario {
             self.duration_s,
             "must be within 0..=duration_s",
         )?;
-        for &(t, rpm) in &self.speed_steps {
+        self.speed_rpm.validate("speed_rpm", self.duration_s, |v| {
             drive_core::error::check_range(
-                "speed step time [s]",
-                t,
+                "speed_rpm",
+                v,
                 0.0,
-                3600.0,
-                "must be 0..=3600 s",
-            )?;
-            drive_core::error::check_range(
-                "speed step [rpm]",
-                rpm,
-                0.0,
-                16383.0,
-                "must be 0..=16383 rpm",
-            )?;
+                MAX_COMMAND_RPM,
+                "must be 0..=16383 rpm (the chip's 14-bit command)",
+            )
+        })?;
+        // After the profile, so that a bad command is named as the profile's point.
+        self.config.validate()?;
+        self.load.validate(self.duration_s)?;
+        // The load's drag, at its steepest (a Coulomb term at standstill, a fan at the top
+        // command), must leave the speed's step stable.
+        let max = |p: &Profile| p.points().iter().map(|q| q.1.abs()).fold(0.0, f64::max);
+        let top = MAX_COMMAND_RPM * std::f64::consts::TAU / 60.0;
+        let slope = max(&self.load.coulomb_nm) / self.config.motor.coulomb_speed_rad_s
+            + max(&self.load.viscous_nms)
+            + 2.0 * max(&self.load.fan_nms2) * top;
+        self.config
+            .plant_params()
+            .check_mechanics(slope, self.load.inertia_kgm2)?;
+        if let Some(p) = &self.supply_v {
+            p.validate("supply_v", self.duration_s, |v| {
+                let mut stage = self.config.power_stage.clone();
+                stage.supply_v = v;
+                stage.validate()
+            })?;
         }
-        for &(t, nm) in &self.load_steps {
-            drive_core::error::check_range(
-                "load step time [s]",
-                t,
-                0.0,
-                3600.0,
-                "must be 0..=3600 s",
-            )?;
-            drive_core::error::check_range(
-                "load_nm",
-                nm,
-                -1.0,
-                1.0,
-                "must be finite, |T| <= 1 N·m",
-            )?;
-        }
+        drive_core::error::check_range(
+            "profile_update_s",
+            self.profile_update_s,
+            1e-6,
+            1.0,
+            "must be 1e-6..=1 s",
+        )?;
         if let Some(tr) = &self.trace {
+            drive_core::error::check_range(
+                "trace_from_s",
+                tr.from_s,
+                0.0,
+                self.duration_s,
+                "must be within 0..=duration_s",
+            )?;
+            drive_core::error::check_range(
+                "trace_to_s",
+                tr.to_s,
+                tr.from_s,
+                self.duration_s,
+                "must be within trace_from_s..=duration_s",
+            )?;
             drive_core::error::check_range(
                 "trace_every_us",
                 tr.every_s * 1e6,
@@ -134,7 +184,15 @@ impl Scenario {
             1e6,
             "must be in 1..=1e6 Hz (blocks of at least one µs)",
         )?;
-        drive_core::error::check_positive("speed_record_s", self.speed_record_s)
+        drive_core::error::check_positive("speed_record_s", self.speed_record_s)?;
+        if self.duration_s / self.speed_record_s > MAX_RECORD_POINTS {
+            return Err(ParamError::new(
+                "speed_record_s",
+                self.speed_record_s,
+                "must be >= duration_s / 1e7 (at most 10 million points are recorded)",
+            ));
+        }
+        Ok(())
     }
 }
 
@@ -182,6 +240,9 @@ pub struct TraceRow {
 impl TraceRow {
     /// The CSV header, in field order.
     pub const HEADER: &'static str = "t_s,speed_rpm,speed_est_rpm,theta_e_deg,i_u,i_v,i_w,v_u,v_v,v_w,v_n,torque_nm,state,zd,zdf,linear,duty,restarts";
+
+    /// A row's usual length as CSV \[bytes\] (signs and magnitudes vary it by a few).
+    pub const TYPICAL_BYTES: u64 = 140;
 
     /// The row as CSV (no newline).
     pub fn csv(&self) -> String {
@@ -337,10 +398,17 @@ pub enum RunError {
 /// Runs `sc`, calling `on_row` for every trace row.
 pub fn run(sc: &Scenario, mut on_row: impl FnMut(&TraceRow)) -> Result<Outcome, RunError> {
     sc.validate()?;
+    let mut config = sc.config.clone();
+    config.control.speed_ref_rpm = sc.speed_rpm.value_at(0.0);
+    if let Some(p) = &sc.supply_v {
+        config.power_stage.supply_v = p.value_at(0.0);
+    }
     let mut eng = match &sc.plugin {
-        Some(p) => build_plugin(&sc.config, p)?,
-        None => build(&sc.config)?,
+        Some(p) => build_plugin(&config, p)?,
+        None => build(&config)?,
     };
+    let mut load = sc.load.at(0.0);
+    eng.plant.set_load(load);
     let wall = Instant::now();
     let trace = sc.trace.map(|t| {
         let every = Ticks(((t.every_s / Ticks(1).seconds()).round() as u64).max(1));
@@ -384,14 +452,27 @@ pub fn run(sc: &Scenario, mut on_row: impl FnMut(&TraceRow)) -> Result<Outcome, 
         .iter()
         .flat_map(|t| [(t.from_s, Event::TraceOn), (t.to_s, Event::TraceOff)])
         .chain([(steady_from, Event::SteadyOn)]);
-    let mut events: Vec<(f64, Event)> = sc
-        .speed_steps
+    // The profiles' settings after t = 0 (the engine was built with their first values).
+    let (end, stair) = (sc.duration_s, sc.profile_update_s);
+    let later = |p: &Profile| p.settings(end, stair).into_iter().skip(1);
+    let loads = sc
+        .load
+        .terms()
+        .into_iter()
+        .enumerate()
+        .flat_map(|(k, (_, p))| later(p).map(move |(t, x)| (t, Event::Load(k, x))));
+    let supply = sc
+        .supply_v
         .iter()
-        .map(|&(t, x)| (t, Event::Speed(x)))
-        .chain(sc.load_steps.iter().map(|&(t, x)| (t, Event::Load(x))))
+        .flat_map(|p| later(p).map(|(t, x)| (t, Event::Supply(x))));
+    let mut events: Vec<(f64, Event)> = later(&sc.speed_rpm)
+        .map(|(t, x)| (t, Event::Speed(x)))
+        .chain(loads)
+        .chain(supply)
         .chain(traced)
         .filter(|e| e.0 < sc.duration_s)
         .collect();
+    // Stable: settings at one instant keep their order.
     events.sort_by(|a, b| a.0.total_cmp(&b.0));
     events.push((sc.duration_s, Event::End));
 
@@ -465,7 +546,11 @@ pub fn run(sc: &Scenario, mut on_row: impl FnMut(&TraceRow)) -> Result<Outcome, 
         })?;
         match event {
             Event::Speed(rpm) => eng.controller.set_speed_ref(rpm),
-            Event::Load(nm) => eng.plant.set_load_torque(nm),
+            Event::Load(k, x) => {
+                load.set_term(k, x);
+                eng.plant.set_load(load);
+            }
+            Event::Supply(v) => eng.plant.set_supply_v(v)?,
             Event::TraceOn => trace_on = true,
             Event::TraceOff => trace_on = false,
             Event::SteadyOn => steady_on = true,
@@ -486,7 +571,7 @@ pub fn run(sc: &Scenario, mut on_row: impl FnMut(&TraceRow)) -> Result<Outcome, 
             let (t1, cu1, ti1, ti21) = integrals(&eng.plant);
             let dt = t1 - t0;
             if dt > 0.0 {
-                let r = sc.config.motor.resistance_ohm;
+                let r = config.motor.resistance_ohm;
                 (
                     (ti1 - ti0) / dt,
                     (ti21 - ti20) / dt,
@@ -504,7 +589,7 @@ pub fn run(sc: &Scenario, mut on_row: impl FnMut(&TraceRow)) -> Result<Outcome, 
         command_rpm: eng.controller.speed_ref_rpm(),
         speed_mean_rpm: speed.mean(),
         window_s: speed.duration(),
-        pole_pairs: sc.config.motor.poles / 2,
+        pole_pairs: config.motor.poles / 2,
         chip_speed_rpm: f64::from(s.speed_est_rpm),
         restarts: (s.restarts, sc.config.control.max_restarts),
         gave_up: s.mode == Mode::GaveUp,
@@ -555,7 +640,9 @@ pub fn run(sc: &Scenario, mut on_row: impl FnMut(&TraceRow)) -> Result<Outcome, 
 #[derive(Copy, Clone, Debug)]
 enum Event {
     Speed(f64),
-    Load(f64),
+    /// A torque term of the load (see [`plants::Load::set_term`]).
+    Load(usize, f64),
+    Supply(f64),
     TraceOn,
     TraceOff,
     SteadyOn,

@@ -90,8 +90,16 @@ fn run_writes_a_trace_with_the_documented_columns_and_an_honest_summary() {
             .all(|r| (r[col("i_u")] + r[col("i_v")] + r[col("i_w")]).abs() < 1e-5)
     );
 
-    let j: serde_json::Value =
+    let record: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    // Self-describing: the layout's version, the tool's, and the complete scenario.
+    assert_eq!(record["schema_version"], 1);
+    assert!(record["tool"].as_str().unwrap().starts_with("drive-bench "));
+    let sc = &record["scenario"];
+    assert_eq!(sc["strategy"], "twelve-step-df");
+    assert_eq!(sc["duration_s"], 2.5);
+    assert!(sc["seed"].is_u64() && sc["config"]["motor"]["resistance_ohm"].is_f64());
+    let j = &record["summary"];
     for key in [
         "strategy",
         "speed_ref_rpm",
@@ -334,7 +342,9 @@ fn a_plugin_strategy_is_listed_and_runs_like_the_builtin_it_reimplements() {
     );
     assert!(out.status.success(), "{}", text(&out.stderr));
     let read = |p: &PathBuf| -> serde_json::Value {
-        serde_json::from_str(&std::fs::read_to_string(p).unwrap()).unwrap()
+        let r: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(p).unwrap()).unwrap();
+        r["summary"].clone()
     };
     let (ja, jb) = (read(&a), read(&b));
     assert_eq!(jb["strategy"], "example-twelve-step-df");
@@ -354,4 +364,104 @@ fn a_plugin_strategy_is_listed_and_runs_like_the_builtin_it_reimplements() {
         "{}",
         text(&out.stderr)
     );
+}
+
+#[test]
+fn a_scenario_file_runs_with_its_profiles_and_the_flags_that_still_apply() {
+    let json = tmp("scenario.json");
+    let file = format!(
+        "{}/examples/scenarios/start-up.toml",
+        env!("CARGO_MANIFEST_DIR")
+    );
+    let out = bench(&[
+        "run",
+        "--scenario",
+        &file,
+        "--seed",
+        "3",
+        "--json",
+        json.to_str().unwrap(),
+    ]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let r: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    // The file's strategy and duration, the flag's seed.
+    assert_eq!(r["scenario"]["strategy"], "twelve-step-df");
+    assert_eq!(r["scenario"]["duration_s"], 3.0);
+    assert_eq!(r["scenario"]["seed"], 3);
+    assert_eq!(r["summary"]["verdict"], "running");
+    // A scenario replaces the constant-run flags: a usage error (2), named.
+    let out = bench(&["run", "--scenario", &file, "--speed-rpm", "3000"]);
+    assert_eq!(out.status.code(), Some(2), "{}", text(&out.stderr));
+    assert!(text(&out.stderr).contains("--speed-rpm"));
+}
+
+/// Nothing is touched and nothing simulated before every argument passes its rule.
+#[test]
+fn bad_outputs_and_oversized_traces_are_refused_before_the_run() {
+    let csv = tmp("kept.csv");
+    std::fs::write(&csv, "precious\n").unwrap();
+    let run = |extra: &[&str]| {
+        let mut a = vec![
+            "run",
+            "--strategy",
+            "twelve-step-df",
+            "--speed-rpm",
+            "3000",
+            "--duration-s",
+            "3600",
+        ];
+        a.extend_from_slice(extra);
+        let t = std::time::Instant::now();
+        let out = bench(&a);
+        // An hour of drive takes minutes: a refusal comes at once.
+        assert!(t.elapsed().as_secs_f64() < 10.0, "{a:?} ran");
+        out
+    };
+    // 3600 s every 10 µs: 360 M rows, ≈ 50 GB.
+    let out = run(&["--trace", csv.to_str().unwrap()]);
+    assert_eq!(out.status.code(), Some(1));
+    let e = text(&out.stderr);
+    assert!(e.contains("GB") && e.contains("--large-trace"), "{e}");
+    assert_eq!(std::fs::read_to_string(&csv).unwrap(), "precious\n");
+    // A folder that does not exist, for the JSON: refused, and the trace left alone.
+    let missing = tmp("no/such/folder/run.json");
+    let out = run(&[
+        "--trace",
+        csv.to_str().unwrap(),
+        "--trace-from-s",
+        "3599.9",
+        "--json",
+        missing.to_str().unwrap(),
+    ]);
+    assert_eq!(out.status.code(), Some(1));
+    assert!(
+        text(&out.stderr).contains("does not exist"),
+        "{}",
+        text(&out.stderr)
+    );
+    assert_eq!(std::fs::read_to_string(&csv).unwrap(), "precious\n");
+    // A trace window outside the run.
+    let out = run(&["--trace", csv.to_str().unwrap(), "--trace-from-s", "4000"]);
+    assert!(
+        text(&out.stderr).contains("trace_from_s"),
+        "{}",
+        text(&out.stderr)
+    );
+    // Physical rules: a rotor too light for its friction, a coupling beyond full.
+    let cfg = tmp("light.toml");
+    for (toml, key) in [
+        ("[motor]\ninertia_kgm2 = 1e-12\n", "motor.inertia_kgm2"),
+        (
+            "[motor]\nmutual_inductance_h = 0.7e-3\n",
+            "motor.mutual_inductance_h",
+        ),
+        ("[motor]\nresistance_ohm = 1e300\n", "motor.resistance_ohm"),
+    ] {
+        std::fs::write(&cfg, toml).unwrap();
+        let out = run(&["--config", cfg.to_str().unwrap()]);
+        assert_eq!(out.status.code(), Some(1));
+        assert!(text(&out.stderr).contains(key), "{}", text(&out.stderr));
+    }
+    assert_eq!(std::fs::read_to_string(&csv).unwrap(), "precious\n");
 }

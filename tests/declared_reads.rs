@@ -27,13 +27,15 @@ impl Controller for ReadsAll {
     }
 }
 
+type Stops = Vec<(Ticks, StopReason)>;
+
 /// Every stop of a run to `secs` as (instant, reason), and the true state at its end; the
 /// rotor is stopped and held from `stall_at` \[s\] on.
 fn stops<C: Controller, S: bldc_drive::drive_core::PwmScheme>(
     mut e: Engine<BldcPlant, C, S>,
     secs: f64,
     stall_at: f64,
-) -> (Vec<(Ticks, StopReason)>, String, Engine<BldcPlant, C, S>) {
+) -> (Stops, String, Engine<BldcPlant, C, S>) {
     let mut seen = Vec::new();
     let mut run = |e: &mut Engine<BldcPlant, C, S>, until: f64| {
         let end = Ticks::from_seconds(until).unwrap();

@@ -260,6 +260,13 @@ mod tests {
             ("strategy.lm_speed_max_rpm", "min"), // > strategy.lm_speed_min_rpm
             ("control.start_current_a", "max"),   // <= control.current_limit_a
             ("control.current_limit_a", "min"),   // >= control.start_current_a
+            ("motor.mutual_inductance_h", "max"), // < motor.self_inductance_h
+            ("motor.self_inductance_h", "min"),   // > motor.mutual_inductance_h
+            // The speed's step: max_step·(Bm + Tc/ω0)/J <= 2.
+            ("motor.inertia_kgm2", "min"),
+            ("motor.viscous_friction_nms", "max"),
+            ("motor.coulomb_friction_nm", "max"),
+            ("motor.coulomb_speed_rad_s", "min"),
         ];
         for v in table() {
             let Role::Parameter { set, .. } = v.role else {

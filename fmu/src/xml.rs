@@ -273,7 +273,7 @@ mod tests {
             assert_eq!(x.matches(&tag).count(), 1, "{}", v.name);
         }
         assert!(x.contains("name=\"motor.resistance_ohm\""));
-        assert!(x.contains("<Real unit=\"Ohm\" min=\"0.0\" start=\"2.2\"/>"));
+        assert!(x.contains("<Real unit=\"Ohm\" min=\"0.0001\" max=\"1000.0\" start=\"2.2\"/>"));
         // Appended after the plugin, in this order, so that every older variable kept its
         // value reference.
         let appended = [

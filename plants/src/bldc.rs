@@ -9,7 +9,8 @@
 //! integrals take RK4's weights on those currents; the other shapes use classical RK4
 //! throughout.
 //!
-//! Mechanics: J·dωm/dt = Te − Bm·ωm − Tc·tanh(ωm/ω0) − TL, dθe/dt = (P/2)·ωm,
+//! Mechanics: (J + J_L)·dωm/dt = Te − Bm·ωm − Tc·tanh(ωm/ω0) − TL(ωm), dθe/dt = (P/2)·ωm,
+//! with the driven machine's torque TL and inertia J_L from [`Load`],
 //! Te = (P/2)·λr·Σ i_x·f(θx) so that Te·ωm = Σ e_x·i_x exactly.
 //!
 //! Events located in time (Illinois regula falsi on the step's solution, to 0.1 ns): a freewheeling
@@ -18,6 +19,7 @@
 
 use crate::circuit::{self, Circuit, Conduction, Linearised, Powers, Solution};
 use crate::emf;
+use crate::load::Load;
 use crate::modal::{Forcing, Modal, Response};
 use crate::params::{BackEmfShape, PlantParams};
 use crate::sensing::{ComparatorBank, CurrentSense, Knot};
@@ -175,8 +177,9 @@ pub struct BldcPlant {
     shape: BackEmfShape,
     pp: f64,
     lambda: f64,
+    /// J + J_L \[kg·m²\].
     inertia: f64,
-    /// 1/J and 1/ω_c: the derivative multiplies rather than divides.
+    /// 1/(J + J_L) and 1/ω_c: the derivative multiplies rather than divides.
     inv_inertia: f64,
     inv_coulomb_speed: f64,
     friction: f64,
@@ -190,7 +193,7 @@ pub struct BldcPlant {
     tick: (Ticks, bool),
     gates: Gates,
     modes: Abc<Conduction>,
-    load_nm: f64,
+    load: Load,
     speed_lock: bool,
     /// Network solution at the current time (right after any event): start of the next
     /// sensing segment.
@@ -256,7 +259,7 @@ impl BldcPlant {
             tick: (Ticks::ZERO, true),
             gates: Gates::OFF,
             modes,
-            load_nm: 0.0,
+            load: Load::default(),
             speed_lock: false,
             start,
             cmp,
@@ -280,11 +283,48 @@ impl BldcPlant {
         &self.params
     }
 
-    /// Sets the load torque TL [N·m] (opposing positive rotation) from now on.
+    /// Sets the active load torque T_a [N·m] (opposing positive rotation) from now on,
+    /// keeping the rest of the load; a non-finite value counts as 0.
     pub fn set_load_torque(&mut self, nm: f64) {
+        let nm = if nm.is_finite() { nm } else { 0.0 };
+        self.set_load(Load {
+            active_nm: nm,
+            ..self.load
+        });
+    }
+
+    /// Sets the whole load from now on (validate it first: see [`Load::validate`]). A
+    /// change of J_L keeps the speed (a clutch that couples instantly would not); the
+    /// kinetic energy in [`EnergyLedger`] counts the inertia in force.
+    pub fn set_load(&mut self, load: Load) {
         self.settle();
         self.fsal = None;
-        self.load_nm = if nm.is_finite() { nm } else { 0.0 };
+        self.load = load;
+        self.inertia = self.params.motor.inertia_kgm2 + load.inertia_kgm2;
+        self.inv_inertia = 1.0 / self.inertia;
+    }
+
+    /// The load in force.
+    pub fn load(&self) -> &Load {
+        &self.load
+    }
+
+    /// Sets the supply V_DD \[V\] from now on (a sag, a ripple, a battery discharging);
+    /// validated by `power_stage.supply_v`'s rule. The network's forms are rebuilt, so a
+    /// change costs a few microseconds of wall time per conduction state then entered.
+    pub fn set_supply_v(&mut self, v: f64) -> Result<(), ParamError> {
+        let mut stage = self.params.power_stage.clone();
+        stage.supply_v = v;
+        stage.validate()?;
+        if v == self.params.power_stage.supply_v {
+            return Ok(());
+        }
+        self.settle();
+        self.params.power_stage = stage;
+        self.circuit = Circuit::new(&self.params.motor, &self.params.power_stage);
+        self.forms = (0..circuit::STATES).map(|_| OnceLock::new()).collect();
+        self.refresh_start();
+        Ok(())
     }
 
     /// Sets rotor angle θe \[rad\] and speed \[rpm\]; `lock` holds the speed constant from now on
@@ -540,7 +580,8 @@ impl BldcPlant {
                 + we * (x[0] * fp.u + x[1] * fp.v + x[2] * fp.w));
         // d(drag)/dωm: viscous, and the Coulomb term's tanh′ = 1 − tanh².
         let th = smooth_sign(x[OMEGA] * self.inv_coulomb_speed);
-        let ddrag = self.friction + self.coulomb * (1.0 - th * th) * self.inv_coulomb_speed;
+        let ds = (1.0 - th * th) * self.inv_coulomb_speed;
+        let ddrag = self.friction + self.coulomb * ds + self.load.passive_slope(x[OMEGA], ds);
         (dte - ddrag * k1[OMEGA]) * self.inv_inertia
     }
 
@@ -548,8 +589,15 @@ impl BldcPlant {
     /// `te`, electrical powers `p` and airgap power `airgap` (the same order as in the
     /// state).
     fn stage_rates(&self, p: &Powers, te: f64, wm: f64, airgap: f64) -> ([f64; INTEGRALS], f64) {
-        let drag = self.friction * wm + self.coulomb * smooth_sign(wm * self.inv_coulomb_speed);
-        let net = te - drag - self.load_nm;
+        let s = smooth_sign(wm * self.inv_coulomb_speed);
+        let drag = self.friction * wm + self.coulomb * s;
+        let load = self.load.active_nm
+            + if self.load.has_passive() {
+                self.load.passive_nm(wm, s)
+            } else {
+                0.0
+            };
+        let net = te - drag - load;
         // A locked rotor is held by a dynamometer, which absorbs the net torque.
         let (dw, p_dyno) = if self.speed_lock {
             (0.0, net * wm)
@@ -563,7 +611,7 @@ impl BldcPlant {
             p.diode,
             p.shunt,
             drag * wm,
-            self.load_nm * wm,
+            load * wm,
             airgap,
             p_dyno,
             te,

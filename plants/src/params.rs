@@ -36,18 +36,19 @@ pub enum BackEmfShape {
 pub struct MotorParams {
     /// Number of poles P (θe = P/2·θm). Default 12. Rule: even, 2..=200.
     pub poles: u32,
-    /// PM flux-linkage amplitude per phase λr [Wb·turn]. Default 7.62e-4. Rule: > 0.
+    /// PM flux-linkage amplitude per phase λr [Wb·turn]. Default 7.62e-4. Rule: 1e-6..=1.
     pub flux_linkage_wb: f64,
-    /// Phase self inductance Lp \[H\]. Default 0.63e-3. Rule: > 0.
+    /// Phase self inductance Lp \[H\]. Default 0.63e-3. Rule: 1e-7..=1.
     pub self_inductance_h: f64,
     /// Mutual inductance between two phases M \[H\] (enters as −M·di_y/dt). Default 0.37e-3.
-    /// Rule: ≥ 0. With no neutral current the phases see L = Lp + M.
+    /// Rule: 0 ≤ M < Lp. With no neutral current the phases see L = Lp + M.
     pub mutual_inductance_h: f64,
-    /// Phase resistance R \[Ω\]. Default 2.2. Rule: > 0.
+    /// Phase resistance R \[Ω\]. Default 2.2. Rule: 1e-4..=1e3.
     pub resistance_ohm: f64,
-    /// Rotor inertia J [kg·m²]. Default 17e-7. Rule: > 0.
+    /// Rotor inertia J [kg·m²]. Default 17e-7. Rule: 1e-9..=10, and large enough for the
+    /// friction's slope (see [`PlantParams::check_mechanics`]).
     pub inertia_kgm2: f64,
-    /// Viscous friction Bm [N·m·s/rad]. Default 1.0e-6. Rule: ≥ 0.
+    /// Viscous friction Bm [N·m·s/rad]. Default 1.0e-6. Rule: 0..=1.
     ///
     /// The printed 5e-3 N·m/(rad/s) would need 0.52 N·m (≈ 70 A) at 1000 rpm, impossible for
     /// a motor sensed over 0–0.5 A. 1.0e-6 gives 0.52 mN·m at 5000 rpm; with the Coulomb
@@ -56,7 +57,7 @@ pub struct MotorParams {
     /// the 0.5 A range for load and acceleration. J/Bm is 1.7 s.
     pub viscous_friction_nms: f64,
     /// Coulomb (bearing) drag torque Tc [N·m], applied as Tc·tanh(ωm/ω0). Default 2.5e-4.
-    /// Rule: ≥ 0.
+    /// Rule: 0..=1.
     ///
     /// Viscous friction alone leaves a rotor held by an aligning current an almost undamped
     /// oscillator (ζ ≈ 0.003 at ≈ 19 Hz with 0.5 A), so the chip's 0.7 s alignment would never
@@ -65,7 +66,7 @@ pub struct MotorParams {
     pub coulomb_friction_nm: f64,
     /// Regularisation speed ω0 of the Coulomb drag [rad/s]: below it the drag acts as a
     /// steep viscous term instead of a discontinuity (no stick-slip events). Default 0.5.
-    /// Rule: > 0.
+    /// Rule: 1e-3..=1e3.
     pub coulomb_speed_rad_s: f64,
     /// Back-EMF shape. Default sinusoidal (published).
     pub back_emf: BackEmfShape,
@@ -98,14 +99,65 @@ impl MotorParams {
                 "must be even and 2..=200",
             ));
         }
-        check_positive("motor.flux_linkage_wb", self.flux_linkage_wb)?;
-        check_positive("motor.self_inductance_h", self.self_inductance_h)?;
+        // The bounds hold every motor this model describes with margin; beyond them the
+        // numbers overflow or the model's assumptions (a small drive) break down.
+        check_range(
+            "motor.flux_linkage_wb",
+            self.flux_linkage_wb,
+            1e-6,
+            1.0,
+            "must be 1e-6..=1 Wb·turn",
+        )?;
+        check_range(
+            "motor.self_inductance_h",
+            self.self_inductance_h,
+            1e-7,
+            1.0,
+            "must be 1e-7..=1 H",
+        )?;
         check_non_negative("motor.mutual_inductance_h", self.mutual_inductance_h)?;
-        check_positive("motor.resistance_ohm", self.resistance_ohm)?;
-        check_positive("motor.inertia_kgm2", self.inertia_kgm2)?;
-        check_non_negative("motor.viscous_friction_nms", self.viscous_friction_nms)?;
-        check_non_negative("motor.coulomb_friction_nm", self.coulomb_friction_nm)?;
-        check_positive("motor.coulomb_speed_rad_s", self.coulomb_speed_rad_s)?;
+        if self.mutual_inductance_h >= self.self_inductance_h {
+            return Err(ParamError::new(
+                "motor.mutual_inductance_h",
+                self.mutual_inductance_h,
+                "must be below motor.self_inductance_h (two coils cannot couple more than fully)",
+            ));
+        }
+        check_range(
+            "motor.resistance_ohm",
+            self.resistance_ohm,
+            1e-4,
+            1e3,
+            "must be 1e-4..=1e3 Ω",
+        )?;
+        check_range(
+            "motor.inertia_kgm2",
+            self.inertia_kgm2,
+            1e-9,
+            10.0,
+            "must be 1e-9..=10 kg·m²",
+        )?;
+        check_range(
+            "motor.viscous_friction_nms",
+            self.viscous_friction_nms,
+            0.0,
+            1.0,
+            "must be 0..=1 N·m·s/rad",
+        )?;
+        check_range(
+            "motor.coulomb_friction_nm",
+            self.coulomb_friction_nm,
+            0.0,
+            1.0,
+            "must be 0..=1 N·m",
+        )?;
+        check_range(
+            "motor.coulomb_speed_rad_s",
+            self.coulomb_speed_rad_s,
+            1e-3,
+            1e3,
+            "must be 1e-3..=1e3 rad/s",
+        )?;
         match self.back_emf {
             BackEmfShape::Sinusoidal => {}
             BackEmfShape::Trapezoidal { flat_top_deg } => check_range(
@@ -522,6 +574,9 @@ impl SolverParams {
     }
 }
 
+/// The largest h·s/J the speed's explicit step takes (see [`PlantParams::check_mechanics`]).
+const MAX_MECHANICAL_STEP: f64 = 2.0;
+
 /// Everything the motor + bridge + sensing plant needs.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
@@ -542,6 +597,31 @@ impl PlantParams {
         self.motor.validate()?;
         self.power_stage.validate()?;
         self.sensing.validate()?;
-        self.solver.validate()
+        self.solver.validate()?;
+        self.check_mechanics(0.0, 0.0)
+    }
+
+    /// The speed's explicit step must be stable: with every drag torque's slope over speed
+    /// at its steepest, s = Bm + Tc/ω0 + `load_slope` [N·m·s/rad], and the inertia
+    /// J + `load_inertia`, it needs h·s/(J + J_L) <= 2 for h = `solver.max_step_s` (RK4
+    /// is stable to 2.78 on the real axis). A rotor too light for its friction would
+    /// otherwise oscillate about standstill, then leave the reals.
+    pub fn check_mechanics(&self, load_slope: f64, load_inertia: f64) -> Result<(), ParamError> {
+        let m = &self.motor;
+        let slope = m.viscous_friction_nms + m.coulomb_friction_nm / m.coulomb_speed_rad_s;
+        let j = m.inertia_kgm2 + load_inertia;
+        if self.solver.max_step_s * (slope + load_slope) / j > MAX_MECHANICAL_STEP {
+            let (field, value) = if load_slope > 0.0 {
+                ("load", load_slope)
+            } else {
+                ("motor.inertia_kgm2", m.inertia_kgm2)
+            };
+            return Err(ParamError::new(
+                field,
+                value,
+                "too stiff for the step: solver.max_step_s × (Bm + Tc/ω0 + the load's slope) / (J + J_L) must be <= 2 (raise the inertia or motor.coulomb_speed_rad_s, lower solver.max_step_s, or lighten the load)",
+            ));
+        }
+        Ok(())
     }
 }

@@ -11,6 +11,7 @@ pub mod svg;
 
 use crate::config::DriveConfig;
 use crate::metrics::{Disturbance, StepResponse, disturbance, held_above, step_response};
+use crate::profile::{LoadProfile, Profile};
 use crate::scenario::{RunError, Scenario, Summary, TraceRow, TraceSpec, run};
 use range::Range;
 use serde::Serialize;
@@ -145,9 +146,10 @@ impl Default for StepPlan {
                 AwCase {
                     name: "step 1500 → 6000 rpm".into(),
                     saturates: "speed PI at the current limit".into(),
-                    start_rpm: 3000.0,
-                    speed_steps: vec![(1.5, 1500.0), (3.0, 6000.0)],
-                    load_steps: Vec::new(),
+                    speed_rpm: Profile::constant(3000.0)
+                        .step_to(1.5, 1500.0)
+                        .step_to(3.0, 6000.0),
+                    load_nm: Profile::default(),
                     at_s: 3.0,
                     to_rpm: 6000.0,
                     duration_s: 5.5,
@@ -155,9 +157,10 @@ impl Default for StepPlan {
                 AwCase {
                     name: "step 16000 (beyond reach) → 8000 rpm".into(),
                     saturates: "current PI at full duty, speed PI at the current limit".into(),
-                    start_rpm: 3000.0,
-                    speed_steps: vec![(1.5, 16000.0), (3.5, 8000.0)],
-                    load_steps: Vec::new(),
+                    speed_rpm: Profile::constant(3000.0)
+                        .step_to(1.5, 16000.0)
+                        .step_to(3.5, 8000.0),
+                    load_nm: Profile::default(),
                     at_s: 3.5,
                     to_rpm: 8000.0,
                     duration_s: 5.5,
@@ -165,9 +168,10 @@ impl Default for StepPlan {
                 AwCase {
                     name: "load 2.5 mN·m at 6000 rpm, 2–3 s".into(),
                     saturates: "speed PI at the current limit".into(),
-                    start_rpm: 6000.0,
-                    speed_steps: Vec::new(),
-                    load_steps: vec![(2.0, 2.5e-3), (3.0, 0.0)],
+                    speed_rpm: Profile::constant(6000.0),
+                    load_nm: Profile::constant(0.0)
+                        .step_to(2.0, 2.5e-3)
+                        .step_to(3.0, 0.0),
                     at_s: 3.0,
                     to_rpm: 6000.0,
                     duration_s: 5.0,
@@ -185,12 +189,11 @@ pub struct AwCase {
     pub name: String,
     /// Which PI it saturates, and where.
     pub saturates: String,
-    /// Command from t = 0 \[rpm\].
-    pub start_rpm: f64,
-    /// Later commands: (t \[s\], rpm).
-    pub speed_steps: Vec<(f64, f64)>,
-    /// Load torque: (t \[s\], N·m); the first non-zero one is the load whose dip is shown.
-    pub load_steps: Vec<(f64, f64)>,
+    /// Speed command \[rpm\].
+    pub speed_rpm: Profile,
+    /// Coulomb (passive) load [N·m]; the first non-zero point is the load whose dip is
+    /// shown.
+    pub load_nm: Profile,
     /// Start of the measured response \[s\].
     pub at_s: f64,
     /// Command from then on \[rpm\].
@@ -202,12 +205,16 @@ pub struct AwCase {
 impl AwCase {
     /// Whether the measured event is a step of the command down (peak = undershoot).
     pub fn is_step_down(&self) -> bool {
-        let before = self
-            .speed_steps
-            .iter()
-            .rfind(|p| p.0 < self.at_s)
-            .map_or(self.start_rpm, |p| p.1);
-        self.to_rpm < before
+        self.to_rpm < self.speed_before()
+    }
+
+    /// The command just before the measured event \[rpm\].
+    pub fn speed_before(&self) -> f64 {
+        let p = self.speed_rpm.points();
+        p.iter()
+            .rfind(|q| q.0 < self.at_s)
+            .or(p.first())
+            .map_or(0.0, |q| q.1)
     }
 }
 
@@ -371,8 +378,7 @@ pub fn compare(
 ) -> Result<Comparison, RunError> {
     let wall = Instant::now();
     let mut jobs = Vec::new();
-    let label_of = |v: usize| variants[v].label.clone();
-    for v in 0..variants.len() {
+    for (v, variant) in variants.iter().enumerate() {
         if plan.ranges {
             for &m in &plan.range_meters {
                 jobs.push(Job::Range(v, m)); // longest first, so the pool ends together
@@ -381,7 +387,7 @@ pub fn compare(
         for &rpm in &plan.grid_rpm {
             jobs.push(Job::Grid(v, rpm));
         }
-        if plan.step.variants.contains(&label_of(v)) {
+        if plan.step.variants.contains(&variant.label) {
             for c in 0..plan.step.cases.len() {
                 for aw in AntiWindup::ALL {
                     jobs.push(Job::Step(v, c, aw));
@@ -389,7 +395,7 @@ pub fn compare(
             }
         }
         jobs.push(Job::Load(v));
-        if plan.startup.0 > 0 && variants[v].plugin.is_none() {
+        if plan.startup.0 > 0 && variant.plugin.is_none() {
             jobs.push(Job::Startup(v));
         }
     }
@@ -438,10 +444,10 @@ pub fn compare(
                 let mut c = config_of(v);
                 c.control.anti_windup = aw != AntiWindup::Off;
                 c.control.speed_anti_windup = aw == AntiWindup::Both;
-                let mut sc = Scenario::hold(c, p.start_rpm, p.duration_s);
+                let mut sc = Scenario::hold(c, p.speed_rpm.value_at(0.0), p.duration_s);
                 sc.plugin = variants[v].plugin.clone();
-                sc.speed_steps = p.speed_steps.clone();
-                sc.load_steps = p.load_steps.clone();
+                sc.speed_rpm = p.speed_rpm.clone();
+                sc.load.coulomb_nm = p.load_nm.clone();
                 sc.speed_record_s = 0.5e-3;
                 let out = run(&sc, |_| {})?;
                 // The response starts from wherever the speed is at the event.
@@ -450,8 +456,8 @@ pub fn compare(
                     .iter()
                     .take_while(|q| q.0 <= p.at_s)
                     .last()
-                    .map_or(p.start_rpm, |q| q.1);
-                let dip_rpm = p.load_steps.iter().find(|l| l.1 != 0.0).map(|l| {
+                    .map_or(p.speed_rpm.value_at(0.0), |q| q.1);
+                let dip_rpm = p.load_nm.points().iter().find(|l| l.1 != 0.0).map(|l| {
                     let during: Vec<_> = out
                         .speed
                         .iter()
@@ -508,7 +514,10 @@ pub fn compare(
                 let (rpm, nm, at, dur) = plan.load;
                 let mut sc = Scenario::hold(config_of(v), rpm, dur);
                 sc.plugin = variants[v].plugin.clone();
-                sc.load_steps.push((at, nm));
+                sc.load = LoadProfile {
+                    coulomb_nm: Profile::constant(0.0).step_to(at, nm),
+                    ..LoadProfile::default()
+                };
                 sc.speed_record_s = 0.5e-3;
                 let out = run(&sc, |_| {})?;
                 Done::Load(LoadRun {

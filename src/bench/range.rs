@@ -16,6 +16,7 @@
 //! led by where the rotor first slipped out of synchronism, if it did.
 
 use crate::config::DriveConfig;
+use crate::profile::Profile;
 use crate::scenario::{RunError, Scenario, Summary, run};
 use crate::verdict::Verdict;
 use serde::Serialize;
@@ -149,16 +150,8 @@ pub fn turned(config: &DriveConfig, seed_rpm: f64, rpm: f64, at_s: f64) -> Scena
     let ramp_s = (seed_rpm - rpm).abs() / RAMP_RPM_PER_S;
     let duration = at_s + ramp_s + SETTLE_S + window;
     let mut sc = Scenario::hold(config.clone(), seed_rpm, duration);
-    let steps = (ramp_s / RAMP_STEP_S).ceil() as usize;
-    let toward = (rpm - seed_rpm).signum() * RAMP_RPM_PER_S;
-    sc.speed_steps.extend((1..=steps).map(|k| {
-        let dt = k as f64 * RAMP_STEP_S;
-        let x = seed_rpm + toward * dt;
-        (
-            at_s + dt,
-            if toward < 0.0 { x.max(rpm) } else { x.min(rpm) },
-        )
-    }));
+    sc.speed_rpm = Profile::constant(seed_rpm).ramp_to(at_s, at_s + ramp_s, rpm);
+    sc.profile_update_s = RAMP_STEP_S;
     sc.steady_from_s = duration - window;
     sc
 }

@@ -226,8 +226,10 @@ fn speed_step_chart(c: &Comparison) -> String {
         .enumerate()
         .map(|(k, case)| {
             let from = case
-                .load_steps
-                .first()
+                .load_nm
+                .points()
+                .iter()
+                .find(|l| l.1 != 0.0)
                 .map_or(case.at_s, |l| l.0.min(case.at_s))
                 - 0.5;
             Panel {

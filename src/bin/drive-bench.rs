@@ -2,7 +2,9 @@
 
 use bldc_drive::DriveConfig;
 use bldc_drive::bench::{self, Plan, calibrate, pool, range, report};
+use bldc_drive::profile::LoadProfile;
 use bldc_drive::scenario::{self, Scenario, TraceRow, TraceSpec};
+use bldc_drive::scenario_file::{RunRecord, ScenarioFile};
 use bldc_drive::strategies::{PluginLibrary, StrategyName};
 use clap::{Args, Parser, Subcommand};
 use std::io::{BufWriter, IsTerminal, Write};
@@ -82,31 +84,46 @@ enum Cmd {
 #[derive(Args)]
 #[command(allow_negative_numbers = true)]
 struct RunArgs {
-    /// Strategy name (see `drive-bench list`).
+    /// A scenario file (TOML): duration, profiles of speed, load and supply, load model,
+    /// config overrides (see examples/scenarios/). Replaces --speed-rpm, --duration-s and
+    /// --load-nm; --strategy, --config and --seed still apply.
+    #[arg(long, conflicts_with_all = ["speed_rpm", "duration_s", "load_nm"])]
+    scenario: Option<PathBuf>,
+    /// Strategy name (see `drive-bench list`); with --scenario, overrides its strategy.
+    #[arg(long, required_unless_present = "scenario")]
+    strategy: Option<String>,
+    /// Constant speed command \[rpm\].
+    #[arg(long, required_unless_present = "scenario")]
+    speed_rpm: Option<f64>,
+    /// Simulated time \[s\]; steady state is the last third (default 3).
     #[arg(long)]
-    strategy: String,
-    /// Speed command \[rpm\].
+    duration_s: Option<f64>,
+    /// A passive (Coulomb) load on the shaft, opposing motion, from t = 0 [N·m].
     #[arg(long)]
-    speed_rpm: f64,
-    /// Simulated time \[s\]; steady state is the last third.
-    #[arg(long, default_value_t = 3.0)]
-    duration_s: f64,
-    /// Load torque on the shaft from t = 0 [N·m].
-    #[arg(long, default_value_t = 0.0)]
-    load_nm: f64,
-    /// TOML config.
+    load_nm: Option<f64>,
+    /// TOML config: the drive the scenario runs on.
     #[arg(long)]
     config: Option<PathBuf>,
     /// Seed of the comparator noise (overrides `sensing.seed`).
     #[arg(long)]
     seed: Option<u64>,
-    /// Writes a trace (CSV) of the whole run.
+    /// Writes a trace (CSV) to this file.
     #[arg(long)]
     trace: Option<PathBuf>,
     /// Trace sampling period \[µs\].
     #[arg(long, default_value_t = 10.0)]
     trace_every_us: f64,
-    /// Writes the summary as JSON.
+    /// First traced instant \[s\].
+    #[arg(long, default_value_t = 0.0)]
+    trace_from_s: f64,
+    /// Last traced instant \[s\] (default: the end of the run).
+    #[arg(long)]
+    trace_to_s: Option<f64>,
+    /// Allows a trace larger than 1 GB (its expected size is printed before the run).
+    #[arg(long)]
+    large_trace: bool,
+    /// Writes the run as JSON: tool version, schema, the complete scenario (config
+    /// included) and the summary.
     #[arg(long)]
     json: Option<PathBuf>,
 }
@@ -279,23 +296,56 @@ fn compare(a: CompareArgs, plugins: Vec<PluginLibrary>) -> Result<(), String> {
 }
 
 fn run_one(a: RunArgs, plugins: &[PluginLibrary]) -> Result<i32, String> {
+    // Everything is checked before any file is touched or any time simulated.
     let mut cfg = load_config(a.config.as_deref())?;
-    let plugin = apply(choose(&a.strategy, plugins)?, &mut cfg);
-    if let Some(seed) = a.seed {
-        cfg.sensing.seed = seed;
+    let mut sc = match &a.scenario {
+        Some(p) => {
+            let text = std::fs::read_to_string(p).map_err(|e| format!("{}: {e}", p.display()))?;
+            ScenarioFile::from_toml(&text)
+                .and_then(|f| f.scenario(&cfg, plugins))
+                .map_err(|e| format!("{}: {e}", p.display()))?
+        }
+        None => {
+            let duration = a.duration_s.unwrap_or(3.0);
+            let mut sc = Scenario::hold(cfg.clone(), a.speed_rpm.unwrap_or(0.0), duration);
+            sc.load = LoadProfile::coulomb(a.load_nm.unwrap_or(0.0));
+            sc
+        }
+    };
+    if let Some(name) = &a.strategy {
+        cfg = sc.config.clone();
+        sc.plugin = apply(choose(name, plugins)?, &mut cfg);
+        sc.config = cfg;
     }
-    let mut sc = Scenario::hold(cfg, a.speed_rpm, a.duration_s);
-    sc.plugin = plugin;
-    if a.load_nm != 0.0 || !a.load_nm.is_finite() {
-        sc.load_steps.push((0.0, a.load_nm));
+    if let Some(seed) = a.seed {
+        sc.config.sensing.seed = seed;
     }
     if a.trace.is_some() {
         sc.trace = Some(TraceSpec {
             every_s: a.trace_every_us * 1e-6,
-            from_s: 0.0,
-            to_s: a.duration_s,
+            from_s: a.trace_from_s,
+            to_s: a.trace_to_s.unwrap_or(sc.duration_s),
         });
     }
+    sc.validate().map_err(|e| e.to_string())?;
+    if let Some(t) = &sc.trace {
+        let bytes = t.expected_bytes();
+        eprintln!(
+            "trace: {} rows, about {} → {}",
+            t.rows(),
+            human_bytes(bytes),
+            a.trace.as_deref().unwrap_or(Path::new("-")).display()
+        );
+        if bytes > LARGE_TRACE_BYTES && !a.large_trace {
+            return Err(format!(
+                "the trace would take about {} (rule: at most 1 GB unless --large-trace; shorten it with --trace-every-us, --trace-from-s, --trace-to-s)",
+                human_bytes(bytes)
+            ));
+        }
+    }
+    let outputs: Vec<&Path> = a.trace.iter().chain(&a.json).map(|p| p.as_path()).collect();
+    check_outputs(&outputs)?;
+    let record = ScenarioFile::of(&sc, "");
     let mut trace = match &a.trace {
         Some(p) => {
             let f = std::fs::File::create(p).map_err(|e| format!("{}: {e}", p.display()))?;
@@ -347,7 +397,7 @@ fn run_one(a: RunArgs, plugins: &[PluginLibrary]) -> Result<i32, String> {
     // sets the exit status.
     let _ = std::io::stdout().lock().write_all(text.as_bytes());
     if let Some(p) = a.json {
-        write(&p, &to_json(s)?)?;
+        write(&p, &to_json(&RunRecord::new(record, s.clone()))?)?;
     }
     Ok(s.verdict.exit_code())
 }
@@ -412,6 +462,51 @@ fn load_config(path: Option<&Path>) -> Result<DriveConfig, String> {
     };
     let text = std::fs::read_to_string(p).map_err(|e| format!("{}: {e}", p.display()))?;
     DriveConfig::from_toml(&text).map_err(|e| format!("{}: {e}", p.display()))
+}
+
+/// Above this a trace needs --large-trace \[bytes\].
+const LARGE_TRACE_BYTES: u64 = 1_000_000_000;
+
+fn human_bytes(b: u64) -> String {
+    match b {
+        b if b >= 1_000_000_000 => format!("{:.1} GB", b as f64 / 1e9),
+        b if b >= 1_000_000 => format!("{:.1} MB", b as f64 / 1e6),
+        b => format!("{:.1} kB", b as f64 / 1e3),
+    }
+}
+
+/// Each output must be a writable file path whose folder exists: found out before the
+/// run, not after it.
+fn check_outputs(paths: &[&Path]) -> Result<(), String> {
+    for (k, p) in paths.iter().enumerate() {
+        if paths[..k].contains(p) {
+            return Err(format!(
+                "{}: given twice (rule: each output its own file)",
+                p.display()
+            ));
+        }
+        if p.is_dir() {
+            return Err(format!("{}: is a folder (rule: a file path)", p.display()));
+        }
+        let dir = match p.parent() {
+            Some(d) if !d.as_os_str().is_empty() => d,
+            _ => Path::new("."),
+        };
+        if !dir.is_dir() {
+            return Err(format!(
+                "{}: folder {} does not exist (rule: create it first)",
+                p.display(),
+                dir.display()
+            ));
+        }
+        let meta = std::fs::metadata(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+        if meta.permissions().readonly()
+            || std::fs::metadata(p).is_ok_and(|m| m.permissions().readonly())
+        {
+            return Err(format!("{}: not writable", p.display()));
+        }
+    }
+    Ok(())
 }
 
 fn to_json<T: serde::Serialize>(v: &T) -> Result<String, String> {
