@@ -396,7 +396,17 @@ pub enum RunError {
 }
 
 /// Runs `sc`, calling `on_row` for every trace row.
-pub fn run(sc: &Scenario, mut on_row: impl FnMut(&TraceRow)) -> Result<Outcome, RunError> {
+pub fn run(sc: &Scenario, on_row: impl FnMut(&TraceRow)) -> Result<Outcome, RunError> {
+    run_observed(sc, on_row, |_| {})
+}
+
+/// [`run`], also calling `on_time` with the simulated time \[s\] every 0.5 % of the run
+/// (for a progress bar).
+pub fn run_observed(
+    sc: &Scenario,
+    mut on_row: impl FnMut(&TraceRow),
+    mut on_time: impl FnMut(f64),
+) -> Result<Outcome, RunError> {
     sc.validate()?;
     let mut config = sc.config.clone();
     config.control.speed_ref_rpm = sc.speed_rpm.value_at(0.0);
@@ -441,6 +451,7 @@ pub fn run(sc: &Scenario, mut on_row: impl FnMut(&TraceRow)) -> Result<Outcome, 
     let mut duty = Vec::with_capacity(record.capacity());
     let top = f64::from(eng.carrier().top);
     let mut next_record = 0.0;
+    let mut next_time = 0.0;
     let mut last_state = 0u8;
     let mut last_row: Option<Ticks> = None;
 
@@ -483,6 +494,10 @@ pub fn run(sc: &Scenario, mut on_row: impl FnMut(&TraceRow)) -> Result<Outcome, 
                 return; // between ticks: the next whole-tick stop follows at once
             }
             let t = e.plant.time_s();
+            if t >= next_time {
+                on_time(t);
+                next_time = t + sc.duration_s / 200.0;
+            }
             let s = e.controller.status();
             let (recorded, steady) = (t >= next_record, t >= steady_from);
             let commutated = s.state != last_state && s.state != 0 && last_state != 0;

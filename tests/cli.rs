@@ -299,8 +299,27 @@ fn the_quick_comparison_writes_the_report_folder() {
     let j: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(dir.join("results.json")).unwrap()).unwrap();
     assert_eq!(j["grid"].as_array().unwrap().len(), 7);
+    // Self-describing: the layout's and the tool's versions, the complete config, the seed.
+    assert_eq!(j["schema_version"], 1);
+    assert!(j["tool"].as_str().unwrap().starts_with("drive-bench "));
+    assert_eq!(
+        j["config"],
+        serde_json::to_value(DriveConfig::default()).unwrap()
+    );
+    assert!(j["seed"].is_u64());
     let md = std::fs::read_to_string(dir.join("report.md")).unwrap();
     assert!(md.contains("## Metrics") && md.contains("commutation error"));
+    // Every results.csv column is defined in the report, in the CSV's order.
+    let csv = std::fs::read_to_string(dir.join("results.csv")).unwrap();
+    let header = csv.lines().next().unwrap();
+    assert!(md.contains("## results.csv columns"));
+    let mut at = md.find("## results.csv columns").unwrap();
+    for col in header.split(',') {
+        let k = md[at..]
+            .find(&format!("| `{col}` |"))
+            .unwrap_or_else(|| panic!("{col}"));
+        at += k;
+    }
 }
 
 #[test]

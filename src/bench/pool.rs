@@ -1,6 +1,6 @@
 //! Runs independent jobs on every core, with an optional progress bar on stderr.
 
-use std::io::{IsTerminal, Write};
+use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use std::sync::Mutex;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
@@ -13,23 +13,11 @@ pub fn map<T: Sync, R: Send>(
     f: impl Fn(&T) -> R + Sync,
 ) -> Vec<R> {
     let next = AtomicUsize::new(0);
-    let done = AtomicUsize::new(0);
     let results: Mutex<Vec<Option<R>>> = Mutex::new((0..items.len()).map(|_| None).collect());
-    let bar = progress.filter(|_| std::io::stderr().is_terminal());
-    let draw = |n: usize| {
-        if let Some(label) = bar {
-            let width = 30;
-            let filled = width * n / items.len().max(1);
-            eprint!(
-                "\r{label} [{}{}] {n}/{}",
-                "#".repeat(filled),
-                ".".repeat(width - filled),
-                items.len()
-            );
-            let _ = std::io::stderr().flush();
-        }
+    let bar = match progress {
+        Some(label) => bar(label, items.len() as u64, "runs"),
+        None => ProgressBar::hidden(),
     };
-    draw(0);
     std::thread::scope(|s| {
         for _ in 0..threads.clamp(1, items.len().max(1)) {
             s.spawn(|| {
@@ -41,20 +29,31 @@ pub fn map<T: Sync, R: Send>(
                     if let Ok(mut v) = results.lock() {
                         v[k] = Some(r);
                     }
-                    draw(done.fetch_add(1, Ordering::Relaxed) + 1);
+                    bar.inc(1);
                 }
             });
         }
     });
-    if bar.is_some() {
-        eprint!("\r{}\r", " ".repeat(80));
-    }
+    bar.finish_and_clear();
     results
         .into_inner()
         .unwrap_or_default()
         .into_iter()
         .map(|r| r.expect("every job ran to completion"))
         .collect()
+}
+
+/// A bar of `len` `unit` with its ETA on stderr, drawn only when stderr is a terminal (a
+/// log or a pipe gets nothing).
+pub fn bar(label: &str, len: u64, unit: &str) -> ProgressBar {
+    let bar = ProgressBar::with_draw_target(Some(len), ProgressDrawTarget::stderr());
+    let template =
+        format!("{{prefix}} [{{bar:30}}] {{pos}}/{{len}} {unit}, {{elapsed}} elapsed, ETA {{eta}}");
+    if let Ok(style) = ProgressStyle::with_template(&template) {
+        bar.set_style(style.progress_chars("#>."));
+    }
+    bar.set_prefix(label.to_string());
+    bar
 }
 
 /// Threads to use: the machine's parallelism.

@@ -4,6 +4,7 @@ use super::range::holds;
 use super::svg::{Panel, Series, chart};
 use super::{AntiWindup, Comparison, CrossingTrace};
 use crate::config::DriveConfig;
+use serde::Serialize;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
@@ -164,7 +165,15 @@ pub fn write_folder(
         files.push(p);
         Ok(())
     };
-    let json = serde_json::to_string_pretty(c).map_err(std::io::Error::other)?;
+    let record = ResultsRecord {
+        schema_version: 1,
+        tool: format!("drive-bench {}", env!("CARGO_PKG_VERSION")),
+        config,
+        seed: config.sensing.seed,
+        columns: "report.md, section \"results.csv columns\"",
+        comparison: c,
+    };
+    let json = serde_json::to_string_pretty(&record).map_err(std::io::Error::other)?;
     put("results.json", json)?;
     put("results.csv", grid_csv(c))?;
     put("speed_step.svg", speed_step_chart(c))?;
@@ -182,10 +191,118 @@ pub fn write_folder(
     Ok(files)
 }
 
+/// `results.csv`'s columns, in order: (name, unit, definition). The header and the
+/// report's column reference are both written from this one table. "Window" is the grid
+/// run's steady-state window: its last third.
+pub const GRID_COLUMNS: [(&str, &str, &str); 21] = [
+    (
+        "strategy",
+        "",
+        "strategy (and guard or conduction angle) of the run",
+    ),
+    (
+        "speed_ref_rpm",
+        "rpm",
+        "speed command, held from standstill",
+    ),
+    (
+        "verdict",
+        "",
+        "running, off-speed, lost-sync, stalled, not-started, gave-up or non-finite, judged from the true rotor; the figures after it are a valid measurement only when it is running",
+    ),
+    ("verdict_reason", "", "why, in one line"),
+    (
+        "speed_mean_rpm",
+        "rpm",
+        "time-weighted mean of the true speed over the window",
+    ),
+    (
+        "speed_ripple_rpm",
+        "rpm",
+        "standard deviation of the true speed over the window",
+    ),
+    (
+        "torque_mean_nm",
+        "N·m",
+        "mean electromagnetic torque over the window, exact (from ∫Te dt)",
+    ),
+    (
+        "torque_ripple_nm",
+        "N·m",
+        "standard deviation of the torque over the window, full band, exact (from ∫Te dt and ∫Te² dt)",
+    ),
+    (
+        "torque_ripple_lf_nm",
+        "N·m",
+        "low-frequency torque ripple, the vibration proxy: standard deviation of the torque's means over blocks of 1/f_c (f_c = 2 kHz) in the window",
+    ),
+    (
+        "current_rms_a",
+        "A",
+        "phase-current RMS over the window, √(mean(i_u² + i_v² + i_w²)/3), exact (from the copper loss)",
+    ),
+    (
+        "current_peak_a",
+        "A",
+        "largest phase-current magnitude at the engine's whole-tick stops in the window",
+    ),
+    (
+        "commutation_peak_a",
+        "A",
+        "commutation surge: mean over the states in the window of each state's largest phase-current magnitude",
+    ),
+    (
+        "restarts",
+        "",
+        "restarts (step-miss or supervisor) during the whole run",
+    ),
+    (
+        "chip_running",
+        "",
+        "whether the controller believes it ended in closed loop (the verdict says whether the rotor agrees)",
+    ),
+    ("commutations", "", "commutations in the window"),
+    (
+        "commutation_error_deg_mean",
+        "° (electrical)",
+        "signed mean of the commutation-angle error at the true θe (positive: late)",
+    ),
+    (
+        "commutation_error_deg_max",
+        "° (electrical)",
+        "largest |commutation-angle error| in the window",
+    ),
+    (
+        "forced_crossings",
+        "",
+        "zero crossings taken by the demagnetisation timeout instead of the comparator, since the last hand-over",
+    ),
+    ("sim_s", "s", "simulated time"),
+    ("wall_s", "s", "wall-clock time of the run"),
+    ("realtime_factor", "", "sim_s / wall_s"),
+];
+
+/// `results.json`: what produced the comparison, then the comparison itself.
+#[derive(Serialize)]
+struct ResultsRecord<'a> {
+    /// Version of this layout; it changes when a key changes meaning or goes away.
+    schema_version: u32,
+    /// The program and its version.
+    tool: String,
+    /// The base config every variant ran on, complete (each variant sets its strategy).
+    config: &'a DriveConfig,
+    /// The comparator-noise seed of every run but the start-up Monte-Carlo's, whose
+    /// seed is `plan.startup`'s second element.
+    seed: u64,
+    /// Where `results.csv`'s columns are defined.
+    columns: &'static str,
+    #[serde(flatten)]
+    comparison: &'a Comparison,
+}
+
 fn grid_csv(c: &Comparison) -> String {
-    let mut s = String::from(
-        "strategy,speed_ref_rpm,verdict,verdict_reason,speed_mean_rpm,speed_ripple_rpm,torque_mean_nm,torque_ripple_nm,torque_ripple_lf_nm,current_rms_a,current_peak_a,commutation_peak_a,restarts,chip_running,commutations,commutation_error_deg_mean,commutation_error_deg_max,forced_crossings,sim_s,wall_s,realtime_factor\n",
-    );
+    let names: Vec<&str> = GRID_COLUMNS.iter().map(|c| c.0).collect();
+    let mut s = names.join(",") + "\n";
     for g in &c.grid {
         let m = &g.summary;
         let _ = writeln!(
@@ -435,6 +552,14 @@ fn markdown(c: &Comparison, config: &DriveConfig, crossings: &[String]) -> Strin
     let _ = writeln!(s, "\n## Metrics\n");
     for (name, def) in METRIC_DEFINITIONS {
         let _ = writeln!(s, "- **{name}**: {def}.");
+    }
+    let _ = writeln!(
+        s,
+        "\n## results.csv columns\n\nOne row per grid run (every strategy at every grid speed, {} s from standstill; the window is the last third). `results.json` holds the same runs and every other experiment, with the tool's version, the complete config and the seeds.\n\n| column | unit | definition |\n|---|---|---|",
+        c.plan.grid_duration_s
+    );
+    for (name, unit, def) in GRID_COLUMNS {
+        let _ = writeln!(s, "| `{name}` | {unit} | {def} |");
     }
     let _ = writeln!(
         s,

@@ -92,13 +92,13 @@ struct RunArgs {
     /// Strategy name (see `drive-bench list`); with --scenario, overrides its strategy.
     #[arg(long, required_unless_present = "scenario")]
     strategy: Option<String>,
-    /// Constant speed command \[rpm\].
+    /// Constant speed command, in rpm.
     #[arg(long, required_unless_present = "scenario")]
     speed_rpm: Option<f64>,
-    /// Simulated time \[s\]; steady state is the last third (default 3).
+    /// Simulated time, in s; steady state is the last third (default 3).
     #[arg(long)]
     duration_s: Option<f64>,
-    /// A passive (Coulomb) load on the shaft, opposing motion, from t = 0 [N·m].
+    /// A passive (Coulomb) load on the shaft, opposing motion, from t = 0, in N·m.
     #[arg(long)]
     load_nm: Option<f64>,
     /// TOML config: the drive the scenario runs on.
@@ -110,13 +110,13 @@ struct RunArgs {
     /// Writes a trace (CSV) to this file.
     #[arg(long)]
     trace: Option<PathBuf>,
-    /// Trace sampling period \[µs\].
+    /// Trace sampling period, in µs.
     #[arg(long, default_value_t = 10.0)]
     trace_every_us: f64,
-    /// First traced instant \[s\].
+    /// First traced instant, in s.
     #[arg(long, default_value_t = 0.0)]
     trace_from_s: f64,
-    /// Last traced instant \[s\] (default: the end of the run).
+    /// Last traced instant, in s (default: the end of the run).
     #[arg(long)]
     trace_to_s: Option<f64>,
     /// Allows a trace larger than 1 GB (its expected size is printed before the run).
@@ -199,10 +199,17 @@ fn run(cli: Cli) -> Result<i32, String> {
             let mut cfg = load_config(config.as_deref())?;
             let plugin = apply(choose(&strategy, &plugins)?, &mut cfg);
             cfg.validate().map_err(|e| e.to_string())?;
+            if let Some(p) = &json {
+                check_outputs(&[p.as_path()])?;
+            }
             let mut found = Vec::new();
-            for m in [range::Meter::WIDE, range::Meter::AS_PUBLISHED] {
-                let r = range::search(&m.apply(&cfg), plugin.as_ref(), &strategy, m.label)
-                    .map_err(|e| e.to_string())?;
+            // The two meters' searches side by side.
+            let meters = [range::Meter::WIDE, range::Meter::AS_PUBLISHED];
+            let searched = pool::map(&meters, pool::default_threads(), Some("range"), |m| {
+                range::search(&m.apply(&cfg), plugin.as_ref(), &strategy, m.label)
+            });
+            for r in searched {
+                let r = r.map_err(|e| e.to_string())?;
                 let bound = |rpm: Option<f64>, l: &Option<range::Limit>| {
                     let at = rpm.map_or("none".into(), |x| format!("{x:.0} rpm"));
                     match l {
@@ -237,6 +244,9 @@ fn run(cli: Cli) -> Result<i32, String> {
         }
         Some(Cmd::CalibrateLm { config, json }) => {
             let cfg = load_config(config.as_deref())?;
+            if let Some(p) = &json {
+                check_outputs(&[p.as_path()])?;
+            }
             calibrate_lm(&cfg, json.as_deref())
         }
         Some(Cmd::List) => {
@@ -269,6 +279,10 @@ fn compare(a: CompareArgs, plugins: Vec<PluginLibrary>) -> Result<(), String> {
         plan.startup.0 = 0;
     }
     let threads = a.threads.map_or_else(pool::default_threads, usize::from);
+    // The report folder is made before minutes of work, not after.
+    let out = a.out.unwrap_or_else(|| PathBuf::from("drive-bench-report"));
+    std::fs::create_dir_all(&out).map_err(|e| format!("{}: {e}", out.display()))?;
+    check_outputs(&[out.join("report.md").as_path()])?;
     let mut variants = bench::standard_variants(&cfg.strategy);
     variants.extend(
         plugins
@@ -284,7 +298,6 @@ fn compare(a: CompareArgs, plugins: Vec<PluginLibrary>) -> Result<(), String> {
     )
     .map_err(|e| e.to_string())?;
     print!("{}", report::terminal_table(&cmp));
-    let out = a.out.unwrap_or_else(|| PathBuf::from("drive-bench-report"));
     let files = report::write_folder(&cmp, &cfg, &out)
         .map_err(|e| format!("writing the report to {}: {e}", out.display()))?;
     println!(
@@ -356,15 +369,21 @@ fn run_one(a: RunArgs, plugins: &[PluginLibrary]) -> Result<i32, String> {
         None => None,
     };
     let mut write_err = None;
-    let out = scenario::run(&sc, |row| {
-        if let Some((_, w)) = trace.as_mut()
-            && write_err.is_none()
-            && let Err(e) = writeln!(w, "{}", row.csv())
-        {
-            write_err = Some(e);
-        }
-    })
+    let bar = bench::pool::bar("run", (sc.duration_s * 1e3).round() as u64, "ms simulated");
+    let out = scenario::run_observed(
+        &sc,
+        |row| {
+            if let Some((_, w)) = trace.as_mut()
+                && write_err.is_none()
+                && let Err(e) = writeln!(w, "{}", row.csv())
+            {
+                write_err = Some(e);
+            }
+        },
+        |t| bar.set_position((t * 1e3) as u64),
+    )
     .map_err(|e| e.to_string())?;
+    bar.finish_and_clear();
     if let Some((p, mut w)) = trace {
         if let Some(e) = write_err.take().or_else(|| w.flush().err()) {
             return Err(format!("{}: {e}", p.display()));
