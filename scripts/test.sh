@@ -46,3 +46,7 @@ for t in fmu/tests/*.py; do
     echo "== $t"
     "$venv/bin/python" "$t"
 done
+# The README's examples keep working: the FMU from Python, the library from Rust.
+echo "== examples/fmu/speed_step.py"
+"$venv/bin/python" examples/fmu/speed_step.py target/fmu/BldcDrive.fmu
+cargo run --quiet --profile test --locked --example library
