@@ -9,6 +9,7 @@ pub mod bench;
 pub mod config;
 pub mod drive;
 pub mod metrics;
+pub mod plots;
 pub mod profile;
 pub mod scenario;
 pub mod scenario_file;

@@ -143,11 +143,13 @@ pub fn chart(title: &str, x_label: &str, panels: &[Panel]) -> String {
             let stride = series.points.len().div_ceil(MAX_POINTS).max(1);
             let mut d = String::new();
             let mut prev_y = None;
-            for (n, &(x, y)) in series.points.iter().step_by(stride).enumerate() {
+            let mut drawn = Vec::new();
+            for &(x, y) in series.points.iter().step_by(stride) {
                 if !(x.is_finite() && y.is_finite()) {
                     continue;
                 }
-                if n == 0 {
+                drawn.push((px(x), py(y)));
+                if prev_y.is_none() {
                     let _ = write!(d, "M{:.1},{:.1}", px(x), py(y));
                 } else {
                     if series.steps
@@ -163,6 +165,13 @@ pub fn chart(title: &str, x_label: &str, panels: &[Panel]) -> String {
                 s,
                 r#"<path d="{d}" fill="none" stroke="{color}" stroke-width="1.3"/>"#
             );
+            // A lone point draws no line: mark it (a one-speed grid, a single run).
+            if let [(cx, cy)] = drawn[..] {
+                let _ = writeln!(
+                    s,
+                    r#"<circle cx="{cx:.1}" cy="{cy:.1}" r="4" fill="{color}"/>"#
+                );
+            }
             let ly = top + 14.0 + 16.0 * j as f64;
             let _ = writeln!(
                 s,
@@ -223,5 +232,30 @@ mod tests {
         // x range padded by 5 %: x = 0 sits 1/22 of the plot width right of the left edge.
         let x0 = LEFT + (W - LEFT - RIGHT) / 22.0;
         assert!(svg.contains(&format!("M{x0:.1},")), "{svg}");
+    }
+
+    #[test]
+    fn a_lone_point_is_marked_and_a_non_finite_first_point_does_not_break_the_path() {
+        let svg = chart(
+            "t",
+            "x",
+            &[Panel {
+                y_label: "y".into(),
+                series: vec![
+                    Series {
+                        name: "one".into(),
+                        points: vec![(3000.0, 1.0)],
+                        steps: false,
+                    },
+                    Series {
+                        name: "nan first".into(),
+                        points: vec![(0.0, f64::NAN), (1.0, 1.0), (2.0, 2.0)],
+                        steps: false,
+                    },
+                ],
+            }],
+        );
+        assert_eq!(svg.matches("<circle").count(), 1);
+        assert!(!svg.contains("d=\" L") && !svg.contains("d=\"L"), "{svg}");
     }
 }

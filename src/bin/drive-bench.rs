@@ -2,6 +2,7 @@
 
 use bldc_drive::DriveConfig;
 use bldc_drive::bench::{self, Plan, calibrate, pool, range, report};
+use bldc_drive::plots;
 use bldc_drive::profile::LoadProfile;
 use bldc_drive::scenario::{self, Scenario, TraceRow, TraceSpec};
 use bldc_drive::scenario_file::{RunRecord, ScenarioFile};
@@ -122,6 +123,12 @@ struct RunArgs {
     /// Allows a trace larger than 1 GB (its expected size is printed before the run).
     #[arg(long)]
     large_trace: bool,
+    /// Writes overview.svg (speeds with the command, duty, torque, current over the whole
+    /// run) and zoom.svg (currents, voltages, commutation state, Z_d raw and guarded over
+    /// the last electrical turns) into this folder, made if missing. Runs the scenario
+    /// twice more, traced over each figure's window.
+    #[arg(long)]
+    plot: Option<PathBuf>,
     /// Writes the run as JSON: tool version, schema, the complete scenario (config
     /// included) and the summary.
     #[arg(long)]
@@ -358,6 +365,13 @@ fn run_one(a: RunArgs, plugins: &[PluginLibrary]) -> Result<i32, String> {
     }
     let outputs: Vec<&Path> = a.trace.iter().chain(&a.json).map(|p| p.as_path()).collect();
     check_outputs(&outputs)?;
+    if let Some(d) = &a.plot {
+        std::fs::create_dir_all(d).map_err(|e| format!("{}: {e}", d.display()))?;
+        check_outputs(&[
+            d.join("overview.svg").as_path(),
+            d.join("zoom.svg").as_path(),
+        ])?;
+    }
     let record = ScenarioFile::of(&sc, "");
     let mut trace = match &a.trace {
         Some(p) => {
@@ -417,6 +431,13 @@ fn run_one(a: RunArgs, plugins: &[PluginLibrary]) -> Result<i32, String> {
     let _ = std::io::stdout().lock().write_all(text.as_bytes());
     if let Some(p) = a.json {
         write(&p, &to_json(&RunRecord::new(record, s.clone()))?)?;
+    }
+    if let Some(d) = &a.plot {
+        let mut untraced = sc.clone();
+        untraced.trace = None;
+        for (name, svg) in plots::scenario_plots(&untraced).map_err(|e| e.to_string())? {
+            write(&d.join(name), &svg)?;
+        }
     }
     Ok(s.verdict.exit_code())
 }
