@@ -27,8 +27,10 @@ pub struct Scenario {
     pub steady_from_s: f64,
     /// Trace sampling: period \[s\] and the window [from, to] in which rows are produced.
     pub trace: Option<TraceSpec>,
-    /// Period of the decimated true-speed record \[s\] (for step responses and plots).
-    pub speed_record_s: f64,
+    /// Period of the decimated true-speed and duty record \[s\] (for step responses and
+    /// plots); `None` (the default) keeps none, so a run's memory does not grow with its
+    /// duration.
+    pub speed_record_s: Option<f64>,
     /// A plugin strategy to use instead of the built-in one named in the config.
     pub plugin: Option<PluginLibrary>,
     /// How the run is judged from the true rotor.
@@ -63,7 +65,7 @@ impl Scenario {
             load_steps: Vec::new(),
             steady_from_s: (duration_s * 2.0 / 3.0).min(duration_s - 0.5).max(0.0),
             trace: None,
-            speed_record_s: 1e-3,
+            speed_record_s: None,
             plugin: None,
             verdict_rule: VerdictRule::default(),
             torque_lowpass_hz: 2000.0,
@@ -134,7 +136,10 @@ impl Scenario {
             1e6,
             "must be in 1..=1e6 Hz (blocks of at least one µs)",
         )?;
-        drive_core::error::check_positive("speed_record_s", self.speed_record_s)
+        match self.speed_record_s {
+            Some(x) => drive_core::error::check_positive("speed_record_s", x),
+            None => Ok(()),
+        }
     }
 }
 
@@ -314,7 +319,7 @@ pub struct Summary {
 pub struct Outcome {
     /// Steady-state metrics.
     pub summary: Summary,
-    /// True speed every `speed_record_s`: (t \[s\], rpm).
+    /// True speed every `speed_record_s`: (t \[s\], rpm); empty without it.
     pub speed: Vec<(f64, f64)>,
     /// Duty (voltage command / carrier top) at the same instants: (t \[s\], 0..1).
     pub duty: Vec<(f64, f64)>,
@@ -369,10 +374,18 @@ pub fn run(sc: &Scenario, mut on_row: impl FnMut(&TraceRow)) -> Result<Outcome, 
     let (mut current_peak, mut state_peak) = (0.0f64, None::<f64>);
     let mut state_peaks = (0u64, 0.0f64);
     let (mut trace_on, mut steady_on) = (false, false);
-    let mut record = Vec::with_capacity((sc.duration_s / sc.speed_record_s) as usize + 2);
+    let mut record = Vec::with_capacity(
+        sc.speed_record_s
+            .map_or(0, |p| (sc.duration_s / p) as usize + 2),
+    );
     let mut duty = Vec::with_capacity(record.capacity());
+    let record_every = sc.speed_record_s.unwrap_or(f64::INFINITY);
     let top = f64::from(eng.carrier().top);
-    let mut next_record = 0.0;
+    let mut next_record = if sc.speed_record_s.is_some() {
+        0.0
+    } else {
+        f64::INFINITY
+    };
     let mut last_state = 0u8;
     let mut last_row: Option<Ticks> = None;
 
@@ -397,60 +410,71 @@ pub fn run(sc: &Scenario, mut on_row: impl FnMut(&TraceRow)) -> Result<Outcome, 
 
     for (t_event, event) in events {
         let end = tick_of(t_event);
+        let trace_event = matches!(event, Event::TraceOn | Event::TraceOff);
         eng.run_until(end, |e, reason| {
             if matches!(reason, StopReason::Diode | StopReason::Sensing) {
                 return; // between ticks: the next whole-tick stop follows at once
             }
-            let t = e.plant.time_s();
-            let s = e.controller.status();
-            let (recorded, steady) = (t >= next_record, t >= steady_from);
-            let commutated = s.state != last_state && s.state != 0 && last_state != 0;
-            // Observing inside an integrated step costs a step of its own: only when needed.
-            if recorded || steady || commutated {
-                let o = e.plant.observe();
-                let finite = o.speed_rpm.is_finite()
-                    && o.i.u.is_finite()
-                    && o.i.v.is_finite()
-                    && o.i.w.is_finite();
-                witness.instant(t, s.mode == Mode::Running, s.restarts, finite, steady);
-                if commutated {
-                    // The table in force: the chip may start narrower than configured.
-                    let boundary = e.controller.table().state_start_deg(s.state);
-                    let theta = o.theta_e.to_degrees();
-                    witness.commutation(t, theta, boundary, o.speed_rpm, steady);
-                    if steady {
-                        angles.push(theta, boundary);
-                    }
-                }
-                if recorded {
-                    record.push((t, o.speed_rpm));
-                    duty.push((t, f64::from(s.duty) / top));
-                    next_record = t + sc.speed_record_s;
-                }
-                if steady {
-                    speed.push(t, o.speed_rpm);
-                    window.get_or_insert_with(|| integrals(&e.plant));
-                    let i_max = o.i.u.abs().max(o.i.v.abs()).max(o.i.w.abs());
-                    current_peak = current_peak.max(i_max);
+            // Stops made for the trace alone (its rows, its window's ends) are not seen by
+            // the metrics, which sample at the stops: a trace observes without changing the
+            // summary. An untraced run stops at samples only at the torque block boundaries.
+            let trace_only = match reason {
+                StopReason::Sample => !(steady_on && e.now().0 % block.0 == 0),
+                StopReason::End => trace_event,
+                _ => false,
+            };
+            if !trace_only {
+                let t = e.plant.time_s();
+                let s = e.controller.status();
+                let (recorded, steady) = (t >= next_record, t >= steady_from);
+                let commutated = s.state != last_state && s.state != 0 && last_state != 0;
+                // Observing inside an integrated step costs a step of its own: only when needed.
+                if recorded || steady || commutated {
+                    let o = e.plant.observe();
+                    let finite = o.speed_rpm.is_finite()
+                        && o.i.u.is_finite()
+                        && o.i.v.is_finite()
+                        && o.i.w.is_finite();
+                    witness.instant(t, s.mode == Mode::Running, s.restarts, finite, steady);
                     if commutated {
-                        if let Some(p) = state_peak {
-                            state_peaks.0 += 1;
-                            state_peaks.1 += p;
+                        // The table in force: the chip may start narrower than configured.
+                        let boundary = e.controller.table().state_start_deg(s.state);
+                        let theta = o.theta_e.to_degrees();
+                        witness.commutation(t, theta, boundary, o.speed_rpm, steady);
+                        if steady {
+                            angles.push(theta, boundary);
                         }
-                        state_peak = Some(i_max);
                     }
-                    state_peak = state_peak.map(|p| p.max(i_max));
-                    let now = e.now();
-                    if now.0 % block.0 == 0 && block_start.is_none_or(|b| now > b.0) {
-                        let ti = e.plant.torque_integrals().0;
-                        if let Some((_, t0)) = block_start {
-                            blocks.push((ti - t0) / block.seconds());
+                    if recorded {
+                        record.push((t, o.speed_rpm));
+                        duty.push((t, f64::from(s.duty) / top));
+                        next_record = t + record_every;
+                    }
+                    if steady {
+                        speed.push(t, o.speed_rpm);
+                        window.get_or_insert_with(|| integrals(&e.plant));
+                        let i_max = o.i.u.abs().max(o.i.v.abs()).max(o.i.w.abs());
+                        current_peak = current_peak.max(i_max);
+                        if commutated {
+                            if let Some(p) = state_peak {
+                                state_peaks.0 += 1;
+                                state_peaks.1 += p;
+                            }
+                            state_peak = Some(i_max);
                         }
-                        block_start = Some((now, ti));
+                        state_peak = state_peak.map(|p| p.max(i_max));
+                        let now = e.now();
+                        if now.0 % block.0 == 0 && block_start.is_none_or(|b| now > b.0) {
+                            let ti = e.plant.torque_integrals().0;
+                            if let Some((_, t0)) = block_start {
+                                blocks.push((ti - t0) / block.seconds());
+                            }
+                            block_start = Some((now, ti));
+                        }
                     }
                 }
+                last_state = s.state;
             }
-            last_state = s.state;
             if let Some((every, from, to)) = trace {
                 let now = e.now();
                 if now >= from

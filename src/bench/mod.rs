@@ -442,7 +442,7 @@ pub fn compare(
                 sc.plugin = variants[v].plugin.clone();
                 sc.speed_steps = p.speed_steps.clone();
                 sc.load_steps = p.load_steps.clone();
-                sc.speed_record_s = 0.5e-3;
+                sc.speed_record_s = Some(0.5e-3);
                 let out = run(&sc, |_| {})?;
                 // The response starts from wherever the speed is at the event.
                 let from = out
@@ -509,7 +509,7 @@ pub fn compare(
                 let mut sc = Scenario::hold(config_of(v), rpm, dur);
                 sc.plugin = variants[v].plugin.clone();
                 sc.load_steps.push((at, nm));
-                sc.speed_record_s = 0.5e-3;
+                sc.speed_record_s = Some(0.5e-3);
                 let out = run(&sc, |_| {})?;
                 Done::Load(LoadRun {
                     variant: label(v),
