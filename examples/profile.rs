@@ -1,8 +1,9 @@
 //! Profiles the default closed-loop drive in steady state: runs 0–2 s, then times 2–3 s and
 //! prints the real-time factor, the plant's work counters and why the engine stopped.
 //!
-//! `cargo run --release --example profile [speed_rpm]`. Wall time is noisy; instruction
-//! counts are not: `scripts/instructions.sh [speed_rpm]` counts the timed second alone with
+//! `cargo run --release --example profile [speed_rpm [strategy [load_nm]]]` (defaults 3000,
+//! the config's strategy, no load). Wall time is noisy; instruction counts are not:
+//! `scripts/instructions.sh` takes the same arguments and counts the timed second alone with
 //! callgrind (it collects inside `steady_second`, by that name).
 
 use bldc_drive::DriveConfig;
@@ -23,6 +24,24 @@ fn main() {
     };
     let mut cfg = DriveConfig::default();
     cfg.control.speed_ref_rpm = rpm;
+    if let Some(name) = std::env::args().nth(2) {
+        match name.parse() {
+            Ok(n) => cfg.strategy.name = n,
+            Err(err) => {
+                eprintln!("error: {err}");
+                std::process::exit(2);
+            }
+        }
+    }
+    let arg = std::env::args().nth(3);
+    let load_nm = match arg.as_deref().map(str::parse::<f64>) {
+        None => 0.0,
+        Some(Ok(x)) if x.is_finite() => x,
+        Some(_) => {
+            eprintln!("error: load_nm must be a finite number, got {arg:?}");
+            std::process::exit(2);
+        }
+    };
     let mut e = match build(&cfg) {
         Ok(e) => e,
         Err(err) => {
@@ -30,6 +49,7 @@ fn main() {
             std::process::exit(2);
         }
     };
+    e.plant.set_load_torque(load_nm);
     let at = |s: f64| Ticks::from_seconds(s).expect("a few seconds fit in ticks");
     if let Err(err) = e.run_until(at(2.0), |_, _| {}) {
         eprintln!("error: {err}");

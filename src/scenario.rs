@@ -35,8 +35,10 @@ pub struct Scenario {
     pub steady_from_s: f64,
     /// Trace sampling: period \[s\] and the window [from, to] in which rows are produced.
     pub trace: Option<TraceSpec>,
-    /// Period of the decimated true-speed record \[s\] (for step responses and plots).
-    pub speed_record_s: f64,
+    /// Period of the decimated true-speed and duty record \[s\] (for step responses and
+    /// plots); `None` (the default) keeps none, so a run's memory does not grow with its
+    /// duration.
+    pub speed_record_s: Option<f64>,
     /// A plugin strategy to use instead of the built-in one named in the config.
     pub plugin: Option<PluginLibrary>,
     /// How the run is judged from the true rotor.
@@ -94,7 +96,7 @@ impl Scenario {
             profile_update_s: 1e-3,
             steady_from_s: (duration_s * 2.0 / 3.0).min(duration_s - 0.5).max(0.0),
             trace: None,
-            speed_record_s: 1e-3,
+            speed_record_s: None,
             plugin: None,
             verdict_rule: VerdictRule::default(),
             torque_lowpass_hz: 2000.0,
@@ -184,13 +186,15 @@ impl Scenario {
             1e6,
             "must be in 1..=1e6 Hz (blocks of at least one µs)",
         )?;
-        drive_core::error::check_positive("speed_record_s", self.speed_record_s)?;
-        if self.duration_s / self.speed_record_s > MAX_RECORD_POINTS {
-            return Err(ParamError::new(
-                "speed_record_s",
-                self.speed_record_s,
-                "must be >= duration_s / 1e7 (at most 10 million points are recorded)",
-            ));
+        if let Some(x) = self.speed_record_s {
+            drive_core::error::check_positive("speed_record_s", x)?;
+            if self.duration_s / x > MAX_RECORD_POINTS {
+                return Err(ParamError::new(
+                    "speed_record_s",
+                    x,
+                    "must be >= duration_s / 1e7 (at most 10 million points are recorded)",
+                ));
+            }
         }
         Ok(())
     }
@@ -241,19 +245,43 @@ impl TraceRow {
     /// The CSV header, in field order.
     pub const HEADER: &'static str = "t_s,speed_rpm,speed_est_rpm,theta_e_deg,i_u,i_v,i_w,v_u,v_v,v_w,v_n,torque_nm,state,zd,zdf,linear,duty,restarts";
 
-    /// A row's usual length as CSV \[bytes\] (signs and magnitudes vary it by a few).
-    pub const TYPICAL_BYTES: u64 = 140;
+    /// A row's usual length as CSV \[bytes\]: every float at full precision (the shortest
+    /// decimal that reads back to the same value), ≈ 221 bytes measured at 3000 rpm.
+    pub const TYPICAL_BYTES: u64 = 225;
 
     /// The row as CSV (no newline).
     pub fn csv(&self) -> String {
-        // An angle a hair below 360° would print as 360.000: keep the column in [0, 360).
-        let theta = match (self.theta_e_deg * 1e3).round() / 1e3 {
-            t if t >= 360.0 => t - 360.0,
-            t => t,
+        let mut v = Vec::with_capacity(256);
+        self.write_csv(&mut v).expect("a Vec takes every write");
+        String::from_utf8(v).expect("the row is ASCII")
+    }
+
+    /// Writes the row as CSV (no newline). Values are the shortest decimals that read back
+    /// as the same f64 (zmij, several times faster than fixed-precision `format!`, which
+    /// dominated a traced run); the time is printed to the nanosecond from whole ticks.
+    pub fn write_csv(&self, w: &mut impl std::io::Write) -> std::io::Result<()> {
+        // The row is assembled here and handed over in one write.
+        let mut row = [0u8; 512];
+        let mut n = 0;
+        let mut put = |b: &[u8]| {
+            row[n..n + b.len()].copy_from_slice(b);
+            n += b.len();
         };
-        format!(
-            "{:.9},{:.3},{:.1},{:.3},{:.6},{:.6},{:.6},{:.5},{:.5},{:.5},{:.5},{:.9},{},{},{},{},{:.5},{}",
-            self.t_s,
+        let mut f = zmij::Buffer::new();
+        let mut int = Digits::default();
+        // Whole 20 ns ticks: the nanosecond count is exact, printed as s with 9 decimals.
+        let ns = (self.t_s * 1e9).round().max(0.0) as u64;
+        put(int.of(ns / 1_000_000_000));
+        put(b".");
+        // A leading 1 keeps the fraction's leading zeros.
+        put(&int.of(ns % 1_000_000_000 + 1_000_000_000)[1..]);
+        // An angle a hair below 360° could round up to it: keep the column in [0, 360).
+        let theta = if self.theta_e_deg >= 360.0 {
+            0.0
+        } else {
+            self.theta_e_deg
+        };
+        for x in [
             self.speed_rpm,
             self.speed_est_rpm,
             theta,
@@ -265,18 +293,29 @@ impl TraceRow {
             self.v_w,
             self.v_n,
             self.torque_nm,
-            self.state,
-            self.zd,
-            self.zdf,
-            self.linear,
-            self.duty,
-            self.restarts
-        )
+        ] {
+            put(b",");
+            put(f.format(x).as_bytes());
+        }
+        for k in [self.state, self.zd, self.zdf, self.linear] {
+            put(b",");
+            put(int.of(u64::from(k)));
+        }
+        put(b",");
+        put(f.format(self.duty).as_bytes());
+        put(b",");
+        put(int.of(u64::from(self.restarts)));
+        w.write_all(&row[..n])
     }
 
     /// The row of the drive as it is now.
     pub fn of(eng: &DriveEngine) -> Self {
-        let o = eng.plant.observe();
+        Self::observed(eng, &eng.plant.observe())
+    }
+
+    /// The row of the drive as it is now, whose plant was observed as `o` (observing
+    /// inside a step costs a step of its own: a caller that has `o` already passes it).
+    pub fn observed(eng: &DriveEngine, o: &plants::Observation) -> Self {
         let s = eng.controller.status();
         TraceRow {
             t_s: o.t_s,
@@ -298,6 +337,25 @@ impl TraceRow {
             duty: f64::from(s.duty) / f64::from(eng.carrier().top),
             restarts: s.restarts,
         }
+    }
+}
+
+/// A decimal buffer for unsigned integers (the trace's counters and time).
+#[derive(Default)]
+struct Digits([u8; 20]);
+
+impl Digits {
+    fn of(&mut self, mut n: u64) -> &[u8] {
+        let mut k = self.0.len();
+        loop {
+            k -= 1;
+            self.0[k] = b'0' + (n % 10) as u8;
+            n /= 10;
+            if n == 0 {
+                break;
+            }
+        }
+        &self.0[k..]
     }
 }
 
@@ -375,7 +433,7 @@ pub struct Summary {
 pub struct Outcome {
     /// Steady-state metrics.
     pub summary: Summary,
-    /// True speed every `speed_record_s`: (t \[s\], rpm).
+    /// True speed every `speed_record_s`: (t \[s\], rpm); empty without it.
     pub speed: Vec<(f64, f64)>,
     /// Duty (voltage command / carrier top) at the same instants: (t \[s\], 0..1).
     pub duty: Vec<(f64, f64)>,
@@ -447,10 +505,18 @@ pub fn run_observed(
     let (mut current_peak, mut state_peak) = (0.0f64, None::<f64>);
     let mut state_peaks = (0u64, 0.0f64);
     let (mut trace_on, mut steady_on) = (false, false);
-    let mut record = Vec::with_capacity((sc.duration_s / sc.speed_record_s) as usize + 2);
+    let mut record = Vec::with_capacity(
+        sc.speed_record_s
+            .map_or(0, |p| (sc.duration_s / p) as usize + 2),
+    );
     let mut duty = Vec::with_capacity(record.capacity());
+    let record_every = sc.speed_record_s.unwrap_or(f64::INFINITY);
     let top = f64::from(eng.carrier().top);
-    let mut next_record = 0.0;
+    let mut next_record = if sc.speed_record_s.is_some() {
+        0.0
+    } else {
+        f64::INFINITY
+    };
     let mut next_time = 0.0;
     let mut last_state = 0u8;
     let mut last_row: Option<Ticks> = None;
@@ -489,64 +555,77 @@ pub fn run_observed(
 
     for (t_event, event) in events {
         let end = tick_of(t_event);
+        let trace_event = matches!(event, Event::TraceOn | Event::TraceOff);
         eng.run_until(end, |e, reason| {
             if matches!(reason, StopReason::Diode | StopReason::Sensing) {
                 return; // between ticks: the next whole-tick stop follows at once
             }
-            let t = e.plant.time_s();
-            if t >= next_time {
-                on_time(t);
-                next_time = t + sc.duration_s / 200.0;
+            if e.plant.time_s() >= next_time {
+                on_time(e.plant.time_s());
+                next_time = e.plant.time_s() + sc.duration_s / 200.0;
             }
-            let s = e.controller.status();
-            let (recorded, steady) = (t >= next_record, t >= steady_from);
-            let commutated = s.state != last_state && s.state != 0 && last_state != 0;
-            // Observing inside an integrated step costs a step of its own: only when needed.
-            if recorded || steady || commutated {
-                let o = e.plant.observe();
-                let finite = o.speed_rpm.is_finite()
-                    && o.i.u.is_finite()
-                    && o.i.v.is_finite()
-                    && o.i.w.is_finite();
-                witness.instant(t, s.mode == Mode::Running, s.restarts, finite, steady);
-                if commutated {
-                    // The table in force: the chip may start narrower than configured.
-                    let boundary = e.controller.table().state_start_deg(s.state);
-                    let theta = o.theta_e.to_degrees();
-                    witness.commutation(t, theta, boundary, o.speed_rpm, steady);
-                    if steady {
-                        angles.push(theta, boundary);
-                    }
-                }
-                if recorded {
-                    record.push((t, o.speed_rpm));
-                    duty.push((t, f64::from(s.duty) / top));
-                    next_record = t + sc.speed_record_s;
-                }
-                if steady {
-                    speed.push(t, o.speed_rpm);
-                    window.get_or_insert_with(|| integrals(&e.plant));
-                    let i_max = o.i.u.abs().max(o.i.v.abs()).max(o.i.w.abs());
-                    current_peak = current_peak.max(i_max);
+            // Stops made for the trace alone (its rows, its window's ends) are not seen by
+            // the metrics, which sample at the stops: a trace observes without changing the
+            // summary. An untraced run stops at samples only at the torque block boundaries.
+            let trace_only = match reason {
+                StopReason::Sample => !(steady_on && e.now().0 % block.0 == 0),
+                StopReason::End => trace_event,
+                _ => false,
+            };
+            // Observed once per stop, for the metrics and the trace alike.
+            let mut obs = None;
+            if !trace_only {
+                let t = e.plant.time_s();
+                let s = e.controller.status();
+                let (recorded, steady) = (t >= next_record, t >= steady_from);
+                let commutated = s.state != last_state && s.state != 0 && last_state != 0;
+                // Observing inside an integrated step costs a step of its own: only when needed.
+                if recorded || steady || commutated {
+                    let o = *obs.insert(e.plant.observe());
+                    let finite = o.speed_rpm.is_finite()
+                        && o.i.u.is_finite()
+                        && o.i.v.is_finite()
+                        && o.i.w.is_finite();
+                    witness.instant(t, s.mode == Mode::Running, s.restarts, finite, steady);
                     if commutated {
-                        if let Some(p) = state_peak {
-                            state_peaks.0 += 1;
-                            state_peaks.1 += p;
+                        // The table in force: the chip may start narrower than configured.
+                        let boundary = e.controller.table().state_start_deg(s.state);
+                        let theta = o.theta_e.to_degrees();
+                        witness.commutation(t, theta, boundary, o.speed_rpm, steady);
+                        if steady {
+                            angles.push(theta, boundary);
                         }
-                        state_peak = Some(i_max);
                     }
-                    state_peak = state_peak.map(|p| p.max(i_max));
-                    let now = e.now();
-                    if now.0 % block.0 == 0 && block_start.is_none_or(|b| now > b.0) {
-                        let ti = e.plant.torque_integrals().0;
-                        if let Some((_, t0)) = block_start {
-                            blocks.push((ti - t0) / block.seconds());
+                    if recorded {
+                        record.push((t, o.speed_rpm));
+                        duty.push((t, f64::from(s.duty) / top));
+                        next_record = t + record_every;
+                    }
+                    if steady {
+                        speed.push(t, o.speed_rpm);
+                        window.get_or_insert_with(|| integrals(&e.plant));
+                        let i_max = o.i.u.abs().max(o.i.v.abs()).max(o.i.w.abs());
+                        current_peak = current_peak.max(i_max);
+                        if commutated {
+                            if let Some(p) = state_peak {
+                                state_peaks.0 += 1;
+                                state_peaks.1 += p;
+                            }
+                            state_peak = Some(i_max);
                         }
-                        block_start = Some((now, ti));
+                        state_peak = state_peak.map(|p| p.max(i_max));
+                        let now = e.now();
+                        if now.0 % block.0 == 0 && block_start.is_none_or(|b| now > b.0) {
+                            let ti = e.plant.torque_integrals().0;
+                            if let Some((_, t0)) = block_start {
+                                blocks.push((ti - t0) / block.seconds());
+                            }
+                            block_start = Some((now, ti));
+                        }
                     }
                 }
+                last_state = s.state;
             }
-            last_state = s.state;
             if let Some((every, from, to)) = trace {
                 let now = e.now();
                 if now >= from
@@ -555,7 +634,8 @@ pub fn run_observed(
                     && last_row.is_none_or(|r| now > r)
                 {
                     last_row = Some(now);
-                    on_row(&TraceRow::of(e));
+                    let o = obs.unwrap_or_else(|| e.plant.observe());
+                    on_row(&TraceRow::observed(e, &o));
                 }
             }
         })?;

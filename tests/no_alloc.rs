@@ -1,14 +1,18 @@
-//! The step loop allocates nothing: counted with a global allocator wrapper.
+//! The step loop allocates nothing, and a run's heap does not grow with its duration:
+//! counted with a global allocator wrapper.
 
 mod common;
 
 use bldc_drive::drive_core::{OpenLoopSixStep, Ticks};
 use bldc_drive::plants::PlantParams;
 use std::alloc::{GlobalAlloc, Layout, System};
-use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::atomic::{AtomicI64, AtomicU64, Ordering};
 
 struct Counting;
 static ALLOCS: AtomicU64 = AtomicU64::new(0);
+/// Bytes allocated minus bytes freed on the counting thread, and the highest it reached.
+static LIVE: AtomicI64 = AtomicI64::new(0);
+static PEAK: AtomicI64 = AtomicI64::new(0);
 
 thread_local! {
     // Only the test's own thread is counted: the harness may allocate on other threads.
@@ -21,11 +25,17 @@ unsafe impl GlobalAlloc for Counting {
     unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
         if COUNTING.with(|c| c.get()) {
             ALLOCS.fetch_add(1, Ordering::Relaxed);
+            let live =
+                LIVE.fetch_add(layout.size() as i64, Ordering::Relaxed) + layout.size() as i64;
+            PEAK.fetch_max(live, Ordering::Relaxed);
         }
         // SAFETY: same contract as the caller's.
         unsafe { System.alloc(layout) }
     }
     unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
+        if COUNTING.with(|c| c.get()) {
+            LIVE.fetch_sub(layout.size() as i64, Ordering::Relaxed);
+        }
         // SAFETY: same contract as the caller's.
         unsafe { System.dealloc(ptr, layout) }
     }
@@ -42,6 +52,17 @@ fn allocations_during(f: impl FnOnce()) -> u64 {
     let after = ALLOCS.load(Ordering::Relaxed);
     COUNTING.with(|c| c.set(false));
     after - before
+}
+
+/// The peak of the heap allocated on this thread while `f` runs, above its level at the
+/// start \[bytes\].
+fn peak_heap_during(f: impl FnOnce()) -> i64 {
+    COUNTING.with(|c| c.set(true));
+    let start = LIVE.load(Ordering::Relaxed);
+    PEAK.store(start, Ordering::Relaxed);
+    f();
+    COUNTING.with(|c| c.set(false));
+    PEAK.load(Ordering::Relaxed) - start
 }
 
 #[test]
@@ -84,4 +105,22 @@ fn closed_loop_drive_does_not_allocate_in_steady_state() {
     assert!(e.plant.stats().steps - t0.steps > 5000);
     assert!(e.plant.comparator_toggles() > c0);
     assert_eq!(n, 0, "allocations inside the step loop");
+}
+
+#[test]
+fn an_untraced_runs_peak_heap_does_not_grow_with_its_duration() {
+    use bldc_drive::scenario::{Scenario, run};
+    let peak = |duration_s: f64| {
+        let sc = Scenario::hold(bldc_drive::DriveConfig::default(), 3000.0, duration_s);
+        peak_heap_during(|| {
+            let out = run(&sc, |_| {}).unwrap();
+            assert!(out.summary.verdict.is_running(), "{:?}", out.summary);
+        })
+    };
+    let (short, long) = (peak(2.5), peak(7.5));
+    // 5 s more of drive: a record kept per millisecond would add 160 kB.
+    assert!(
+        (long - short).abs() < 16_000,
+        "peak heap {short} B over 2.5 s, {long} B over 7.5 s"
+    );
 }

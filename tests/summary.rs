@@ -58,3 +58,29 @@ fn the_summarys_torque_and_current_do_not_depend_on_where_the_engine_stops() {
         "{plain:?}"
     );
 }
+
+/// A trace observes: its extra stops change neither the trajectory nor the metrics, so the
+/// summary of a traced run is the untraced one, bit for bit (wall time aside).
+#[test]
+fn a_traced_run_has_the_untraced_runs_summary() {
+    let mut sc = Scenario::hold(DriveConfig::default(), 3000.0, 1.5);
+    let figures = |sc: &Scenario, rows: &mut u64| {
+        let s = run(sc, |_| *rows += 1).expect("runs").summary;
+        let mut v = serde_json::to_value(&s).expect("serialises");
+        for k in ["wall_s", "realtime_factor"] {
+            v.as_object_mut().expect("an object").remove(k);
+        }
+        v
+    };
+    let mut rows = 0;
+    let plain = figures(&sc, &mut rows);
+    assert_eq!(rows, 0);
+    sc.trace = Some(TraceSpec {
+        every_s: 10e-6,
+        from_s: 0.0,
+        to_s: 1.5,
+    });
+    let traced = figures(&sc, &mut rows);
+    assert_eq!(rows, 150_001, "a row every 10 µs from 0 to 1.5 s");
+    assert_eq!(plain, traced);
+}

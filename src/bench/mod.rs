@@ -448,7 +448,7 @@ pub fn compare(
                 sc.plugin = variants[v].plugin.clone();
                 sc.speed_rpm = p.speed_rpm.clone();
                 sc.load.coulomb_nm = p.load_nm.clone();
-                sc.speed_record_s = 0.5e-3;
+                sc.speed_record_s = Some(0.5e-3);
                 let out = run(&sc, |_| {})?;
                 // The response starts from wherever the speed is at the event.
                 let from = out
@@ -518,7 +518,7 @@ pub fn compare(
                     coulomb_nm: Profile::constant(0.0).step_to(at, nm),
                     ..LoadProfile::default()
                 };
-                sc.speed_record_s = 0.5e-3;
+                sc.speed_record_s = Some(0.5e-3);
                 let out = run(&sc, |_| {})?;
                 Done::Load(LoadRun {
                     variant: label(v),

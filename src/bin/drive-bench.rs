@@ -389,7 +389,7 @@ fn run_one(a: RunArgs, plugins: &[PluginLibrary]) -> Result<i32, String> {
         |row| {
             if let Some((_, w)) = trace.as_mut()
                 && write_err.is_none()
-                && let Err(e) = writeln!(w, "{}", row.csv())
+                && let Err(e) = row.write_csv(w).and_then(|()| w.write_all(b"\n"))
             {
                 write_err = Some(e);
             }
