@@ -355,7 +355,7 @@ pub(crate) fn build_table() -> Vec<Variable> {
                 c.control.supervisor = v != 0.0;
                 Ok(())
             },
-        }, "", "Plausibility supervisor (not in the published chip): restarts when the measured current could not flow against the back-EMF of the believed speed, or a coast speeds up"),
+        }, "", "Plausibility supervisor (not in the published chip): restarts when the measured current could not flow against the back-EMF of the believed speed, a coast speeds up, or the comparator shows no crossing for control.supervisor_blind_sectors in a row"),
         real!("control.supervisor_no_load_rpm", control.supervisor_no_load_rpm, "rpm", Some(100.0), Some(1e6),
             "No-load speed at full voltage the supervisor assumes"),
         real!("control.supervisor_emf_fraction", control.supervisor_emf_fraction, "1", z, Some(1.0),
@@ -374,5 +374,7 @@ pub(crate) fn build_table() -> Vec<Variable> {
             "Until the first speed measurement, a crossing needs the comparator at its new level for this many electrical degrees of the last 60° time (0: off) [deg]"),
         real!("control.startup_conduction_deg", control.startup_conduction_deg, "deg", Some(120.0), Some(180.0),
             "Twelve-step conduction angle until the first speed measurement, when narrower than strategy.conduction_angle_deg (120 <= x < 180)"),
+        int!("control.supervisor_blind_sectors", control.supervisor_blind_sectors, Some(2.0), Some(1000.0),
+            "Crossings in a row taken by the demagnetisation timeout (never shown by the comparator) that trip the supervisor [count]"),
     ]
 }

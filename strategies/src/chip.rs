@@ -431,11 +431,17 @@ impl Chip {
         let level = self.guard.detect_level(now, z);
         self.zd = z;
         self.zdf = level;
+        let forced = self.shifter.forced_crossings();
         if self.shifter.observe(now, level) == ShiftEvent::Crossing {
             self.crossings += 1;
             // With an empty post part the sensed phase changed at this same edge.
             let z = sensed.zc(self.shifter.zd_phase());
             self.guard.filter.retarget(z);
+            let seen = self.shifter.forced_crossings() == forced;
+            if self.supervisor.crossing(seen) {
+                self.restart(now);
+                return;
+            }
         }
         self.pattern = self.shifter.pattern();
         self.linear = self.window_start().is_some_and(|w| now >= w);

@@ -105,7 +105,8 @@ pub struct ControlParams {
     pub speed_periods: u32,
     /// Plausibility supervisor (not in the published chip; see `supervisor.rs`): restarts
     /// when the measured current could not flow against the back-EMF of the speed the chip
-    /// believes. Default true; false gives the chip as published.
+    /// believes, when a coast speeds up, or when the comparator shows no crossing for
+    /// `supervisor_blind_sectors` in a row. Default true; false gives the chip as published.
     pub supervisor: bool,
     /// The motor's no-load speed at full voltage ω₀ = V_DD/k_e, as the supervisor assumes it
     /// \[rpm\] (a datasheet figure; k_e the mean line-to-line back-EMF per rpm over a 60°
@@ -133,6 +134,12 @@ pub struct ControlParams {
     /// Rise of the FG speed measurement above the lowest of a coast (no current asked, none
     /// measured) that trips the supervisor \[fraction\]. Default 0.25. Rule: 0.01..=10.
     pub supervisor_coast_rise: f64,
+    /// Crossings in a row taken by the demagnetisation timeout, never shown by the
+    /// comparator, that trip the supervisor \[count\]: the commutation then free-runs at
+    /// a frozen rate, blind to the rotor. Default 12 (two electrical turns; healthy runs
+    /// are at most 5 long, a rotor accelerating under the current limit slips 30° in
+    /// ≈ 40). Rule: 2..=1000.
+    pub supervisor_blind_sectors: u32,
     /// Width of the speed counter (2.56 µs counts) \[bits\]. Default 15 (SPEC §7 "counters 15
     /// bit"): it saturates at 32767 counts, so with k = 10 and 12 poles the lowest speed it
     /// can read is 39 062 500 / 32767 ≈ 1192 rpm. Rule: 8..=32.
@@ -168,6 +175,7 @@ impl Default for ControlParams {
             supervisor_locked_share: 0.03,
             supervisor_updates: 8,
             supervisor_coast_rise: 0.25,
+            supervisor_blind_sectors: 12,
             speed_periods: 10,
             speed_counter_bits: 15,
         }
@@ -322,6 +330,13 @@ impl ControlParams {
             0.01,
             10.0,
             "must be in 0.01..=10",
+        )?;
+        check_range(
+            "control.supervisor_blind_sectors",
+            f64::from(self.supervisor_blind_sectors),
+            2.0,
+            1000.0,
+            "must be in 2..=1000 crossings",
         )?;
         check_range(
             "control.speed_periods",

@@ -47,7 +47,9 @@
 //! until the rotor had turned 180° (loss of synchronism). A stalled rotor is not stepped
 //! forever by this: once the freewheel has ended its terminal holds one level, which is the
 //! pre level of every other sector (the expected slope alternates), so that sector arms and
-//! waits for a crossing that never comes, and FG stops (step miss).
+//! waits for a crossing that never comes, and FG stops (step miss). A crossing taken this
+//! way measures t_60 as the interval it was dated from, so a long run of them free-runs the
+//! commutation at a frozen rate; the plausibility supervisor ends such a run.
 
 use crate::table::{Sector, Table};
 use drive_core::{Abc, Pattern, Phase, Ticks, clocks};

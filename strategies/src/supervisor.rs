@@ -40,6 +40,26 @@
 //! the measurement, so a genuine coast stays far below that; false crossings jump by tens
 //! of percent between measurements. An overhauling load that drives the rotor faster with
 //! no current asked would trip it too: switch the supervisor off for such studies.
+//!
+//! **A rotor the comparator no longer shows.** At high speed and current the freewheel
+//! after a commutation can outlast the pre part, so the crossing passes while the floating
+//! terminal is still clamped; the phase shifter then takes it by its demagnetisation
+//! timeout, dated where the last 60° interval predicts it. Such a crossing says nothing
+//! about the rotor, and it measures t_60 as exactly the interval it was dated from: once
+//! every crossing is taken that way the commutation free-runs at a frozen rate, while the
+//! torque the speed loop asks for changes the rotor's speed. Under the current limit the
+//! built-in motor gains ≈ 100 rpm per PI update near 7 krpm, and a commutation frozen
+//! there falls 30° behind in ≈ 40 sectors (the gap grows as a·t²/2: n ≈ ω·√(3/(π·a)) sectors
+//! for an electrical speed ω and acceleration a); a loaded rotor falls behind the same
+//! way. This is what loses six-step's rotor at full duty on the way to top speed: there
+//! the voltage covers any back-EMF and the speed loop asks for current, so the back-EMF
+//! rule cannot see it. So `blind_sectors` crossings in a row that the comparator never
+//! showed trip the supervisor. A healthy drive sees its crossings again within a few
+//! sectors: runs of up to 5 occur after the hand-over and with six-step accelerating under
+//! the current limit at 6–7 krpm, where every other freewheel lasts about the 30° pre part;
+//! the default, two electrical turns (12), sits above them and well below the ≈ 40 in
+//! which the rotor slips. n shrinks with the speed, so at low speed the slip may come
+//! first; the trip then follows within 12 sectors (13 ms at 1500 rpm).
 
 use crate::params::ControlParams;
 
@@ -57,6 +77,8 @@ pub struct Supervisor {
     history: u32,
     quiet: u32,
     coast_min: Option<f64>,
+    blind_sectors: u32,
+    blind: u32,
     trips: u32,
 }
 
@@ -92,6 +114,8 @@ impl Supervisor {
             history: 0,
             quiet: 0,
             coast_min: None,
+            blind_sectors: control.supervisor_blind_sectors.max(1),
+            blind: 0,
             trips: 0,
         }
     }
@@ -101,6 +125,7 @@ impl Supervisor {
         self.history = 0;
         self.quiet = 0;
         self.coast_min = None;
+        self.blind = 0;
     }
 
     /// Whether one PI update is implausible: `current_a` measured while an effective duty
@@ -147,6 +172,22 @@ impl Supervisor {
             trip |= rpm > (1.0 + self.coast_rise) * min;
             self.coast_min = Some(min);
         }
+        if trip {
+            self.reset();
+            self.trips += 1;
+        }
+        trip
+    }
+
+    /// Records one accepted crossing: `seen` when the comparator showed it, false when the
+    /// demagnetisation timeout took it. True when the supervisor trips (it then starts
+    /// afresh): `blind_sectors` crossings in a row were not seen.
+    pub fn crossing(&mut self, seen: bool) -> bool {
+        if !self.enabled {
+            return false;
+        }
+        self.blind = if seen { 0 } else { self.blind + 1 };
+        let trip = self.blind >= self.blind_sectors;
         if trip {
             self.reset();
             self.trips += 1;
@@ -264,6 +305,32 @@ mod tests {
         assert!(s.update(&coast(Some(6300.0), 0.0)));
     }
     #[test]
+    fn a_run_of_crossings_the_comparator_never_showed_trips() {
+        let mut s = Supervisor::new(&ControlParams {
+            supervisor_blind_sectors: 12,
+            ..ControlParams::default()
+        });
+        // Runs of 11 unseen crossings, each ended by a seen one: never.
+        for _ in 0..10 {
+            for _ in 0..11 {
+                assert!(!s.crossing(false));
+            }
+            assert!(!s.crossing(true));
+        }
+        // The 12th in a row trips, and the count starts afresh.
+        for k in 1..=24 {
+            assert_eq!(s.crossing(false), k % 12 == 0, "k = {k}");
+        }
+        assert_eq!(s.trips(), 2);
+        // A restart forgets a run in progress.
+        for _ in 0..11 {
+            s.crossing(false);
+        }
+        s.reset();
+        assert!(!s.crossing(false));
+    }
+
+    #[test]
     fn disabled_never_trips() {
         let mut s = Supervisor::new(&ControlParams {
             supervisor: false,
@@ -272,6 +339,7 @@ mod tests {
         for k in 0..100 {
             assert!(!s.update(&at(10_000.0, 0.0, 1.0)));
             assert!(!s.update(&coast(Some(1000.0 * f64::from(k)), 0.0)));
+            assert!(!s.crossing(false));
         }
     }
 }
