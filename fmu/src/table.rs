@@ -372,5 +372,12 @@ pub(crate) fn build_table() -> Vec<Variable> {
             "Until the first speed measurement, a crossing needs the comparator at its new level for this many electrical degrees of the last 60° time (0: off) [deg]"),
         real!("control.startup_conduction_deg", control.startup_conduction_deg, "deg", Some(120.0), Some(180.0),
             "Twelve-step conduction angle until the first speed measurement, when narrower than strategy.conduction_angle_deg (120 <= x < 180)"),
+        var("strategy.lm_window_capped", Boolean, Role::Parameter {
+            get: |c| f64::from(u8::from(c.strategy.lm_window_capped)),
+            set: |c, v| {
+                c.strategy.lm_window_capped = v != 0.0;
+                Ok(())
+            },
+        }, "", "lm only (not in the published chip): the linear region ends θZC after it began even if the crossing has not been detected, so a region opened early cannot hold full voltage for several θZC"),
     ]
 }

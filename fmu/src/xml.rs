@@ -290,6 +290,7 @@ mod tests {
             "control.supervisor_locked_share",
             "control.startup_confirm_deg",
             "control.startup_conduction_deg",
+            "strategy.lm_window_capped",
         ];
         let n = table().len();
         let tail: Vec<&str> = table()[n - appended.len()..]
