@@ -398,6 +398,8 @@ pub struct Summary {
     pub verdict: crate::verdict::Verdict,
     /// Why, in one line.
     pub verdict_reason: String,
+    /// Power-on to the controller's first hand-over to closed loop \[s\] (`None`: never).
+    pub handover_s: Option<f64>,
     /// When the rotor first followed the commutation (see [`crate::verdict`]) \[s\].
     pub started_at_s: Option<f64>,
     /// The first commutation out of synchronism after that: (t \[s\], true speed \[rpm\]).
@@ -520,6 +522,7 @@ pub fn run_observed(
     let mut next_time = 0.0;
     let mut last_state = 0u8;
     let mut last_row: Option<Ticks> = None;
+    let mut handover: Option<f64> = None;
 
     // Every schedule change is a segment end; the engine runs exactly to it. It stops at
     // the trace's sampling instants only inside the trace's window: elsewhere those stops
@@ -577,6 +580,9 @@ pub fn run_observed(
             if !trace_only {
                 let t = e.plant.time_s();
                 let s = e.controller.status();
+                if handover.is_none() && s.mode == Mode::Running {
+                    handover = Some(t);
+                }
                 let (recorded, steady) = (t >= next_record, t >= steady_from);
                 let commutated = s.state != last_state && s.state != 0 && last_state != 0;
                 // Observing inside an integrated step costs a step of its own: only when needed.
@@ -709,6 +715,7 @@ pub fn run_observed(
             },
             verdict,
             verdict_reason: reason,
+            handover_s: handover,
             started_at_s: witness.started_at_s(),
             sync_lost_at: witness.sync_lost(),
             restarts: s.restarts,

@@ -2,6 +2,7 @@
 //! small seeded Monte-Carlo over ±10 % motor, supply and comparator tolerances.
 
 use bldc_drive::DriveConfig;
+use bldc_drive::bench::range::Meter;
 use bldc_drive::bench::startup::{
     RUN_S, STEADY_S, SplitMix64, Spread, monte_carlo, sample, start_once,
 };
@@ -93,5 +94,61 @@ fn samples_stay_within_the_spread() {
         assert!(p.offset_v.iter().all(|o| o.abs() <= 5e-3));
         assert!(c.motor.self_inductance_h > c.motor.mutual_inductance_h);
         c.validate().expect("valid sample");
+    }
+}
+
+/// Longest linear region (full voltage) of twelve-step-lm between 2.0 and 2.5 s of a
+/// 3000 rpm run of the built-in motor \[s\].
+fn longest_lm_region(capped: bool) -> f64 {
+    use bldc_drive::drive::{build, run_to};
+    use bldc_drive::drive_core::Plant;
+    let mut c = with(StrategyName::TwelveStepLm, None, 2.2);
+    c.strategy.lm_window_capped = capped;
+    let mut eng = build(&c).expect("builds");
+    let (mut since, mut longest) = (None::<f64>, 0.0f64);
+    run_to(&mut eng, 2.5, |e, _| {
+        let t = e.plant.time_s();
+        if t < 2.0 {
+            return;
+        }
+        match (e.controller.status().linear, since) {
+            (true, None) => since = Some(t),
+            (false, Some(t0)) => {
+                longest = longest.max(t - t0);
+                since = None;
+            }
+            _ => {}
+        }
+    })
+    .expect("runs");
+    longest
+}
+
+/// LM's window at 3000 rpm ± 10 % is θZC = 1 + 14·(ω − 1523)/(12941 − 1523) ≤ 3° (whole
+/// degrees), and a 60° interval at 2700 rpm with 6 pole pairs lasts 60/(36·2700) s =
+/// 617 µs, so a capped region lasts at most 3/60·617 µs = 31 µs (+ one 0.64 µs clock).
+/// Held to the detected crossing (the published chip), a region opened early after a
+/// crossing taken early under PWM lasts several times that.
+#[test]
+fn the_lm_linear_region_lasts_no_longer_than_its_window_when_capped() {
+    let bound = 3.0 / 60.0 * 60.0 / (36.0 * 2700.0) + 0.64e-6;
+    let capped = longest_lm_region(true);
+    assert!(
+        capped > 0.0 && capped <= bound,
+        "capped: {capped} s > {bound} s"
+    );
+    let published = longest_lm_region(false);
+    assert!(published > 2.0 * bound, "uncapped: {published} s");
+}
+
+/// Ten seeded starts of twelve-step-lm as the bench runs them (24-bit meter, 3000 rpm):
+/// all succeed, with no restart, handed over at the end of the alignment.
+#[test]
+fn a_seeded_monte_carlo_of_lm_starts_all_succeed() {
+    let base = Meter::WIDE.apply(&with(StrategyName::TwelveStepLm, None, 2.2));
+    let s = monte_carlo(&base, &base.strategy, 10, 1, Spread::default(), 2).expect("runs");
+    assert_eq!(s.successes, 10, "failures: {:#?}", s.failures);
+    for &t in &s.handover_s {
+        assert!((t - HANDOVER_S).abs() < 1e-6, "hand-over at {t} s");
     }
 }

@@ -376,5 +376,12 @@ pub(crate) fn build_table() -> Vec<Variable> {
             "Twelve-step conduction angle until the first speed measurement, when narrower than strategy.conduction_angle_deg (120 <= x < 180)"),
         int!("control.supervisor_blind_sectors", control.supervisor_blind_sectors, Some(2.0), Some(1000.0),
             "Crossings in a row taken by the demagnetisation timeout (never shown by the comparator) that trip the supervisor [count]"),
+        var("strategy.lm_window_capped", Boolean, Role::Parameter {
+            get: |c| f64::from(u8::from(c.strategy.lm_window_capped)),
+            set: |c, v| {
+                c.strategy.lm_window_capped = v != 0.0;
+                Ok(())
+            },
+        }, "", "lm only (not in the published chip): the linear region ends θZC after it began even if the crossing has not been detected, so a region opened early cannot hold full voltage for several θZC"),
     ]
 }

@@ -291,6 +291,7 @@ mod tests {
             "control.startup_confirm_deg",
             "control.startup_conduction_deg",
             "control.supervisor_blind_sectors",
+            "strategy.lm_window_capped",
         ];
         let n = table().len();
         let tail: Vec<&str> = table()[n - appended.len()..]

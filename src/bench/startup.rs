@@ -4,18 +4,26 @@
 //! Each sample scales R, L_self, M, λr, J, Bm, Tc and V_DD of the base config by an
 //! independent factor uniform in 1 ± `spread` (M is then capped below L_self, since the
 //! model needs L_self > M), draws each comparator offset uniform in ±`offset_v`, and draws
-//! a fresh noise seed. A start counts as a success when the drive is handed over to
-//! closed loop once and stays there (no restart) and the true mean speed over the last
-//! [`STEADY_S`] of a [`RUN_S`] run at the base config's `control.speed_ref_rpm` (3000 rpm
-//! by default) is within [`TOLERANCE`] of that command.
+//! a fresh noise seed. Each start is a [`RUN_S`] scenario at the base config's
+//! `control.speed_ref_rpm` (3000 rpm by default), judged like every other run of the bench
+//! (see [`crate::verdict`]) with its steady-state window over the last [`STEADY_S`].
+//!
+//! A start succeeds when the verdict says the commutation follows the true rotor to the end
+//! (running or off-speed: [`Verdict::in_sync`]), the controller never restarted (so the
+//! first hand-over held), and the true mean speed over the window is within [`TOLERANCE`]
+//! of the command. The verdict's own speed tolerance (2 %) is for settled runs; a start is
+//! judged 1.75 s after its hand-over, where the default speed loop still rings: with
+//! Kp = 5·10⁻⁵ A/rpm, Ki = 10⁻⁶ A/rpm per 5.24 ms update and ≈ 45 000 rpm/s per ampere
+//! of torque current on the built-in motor, ωn ≈ 2.9 rad/s and ζ ≈ 0.4, so it settles to 2 %
+//! in ≈ 4/(ζ·ωn) ≈ 3.6 s. The overshoot of the climb to the command, not a ripple, is what
+//! the wider tolerance admits; how many starts also meet 2 % is reported alongside.
 
 use crate::config::DriveConfig;
-use crate::drive::{build, run_to};
-use crate::metrics::TimeStats;
-use crate::scenario::RunError;
-use drive_core::{Abc, Plant, StopReason};
+use crate::scenario::{RunError, Scenario, run};
+use crate::verdict::Verdict;
+use drive_core::Abc;
 use serde::Serialize;
-use strategies::{Mode, StrategyParams};
+use strategies::StrategyParams;
 
 /// Length of each run \[s\].
 pub const RUN_S: f64 = 3.0;
@@ -76,6 +84,8 @@ pub struct StartRun {
     pub sampled: Sampled,
     /// Whether it counts as a success.
     pub started: bool,
+    /// The run's verdict (steady-state window: the last [`STEADY_S`]).
+    pub verdict: Verdict,
     /// Restarts during the run.
     pub restarts: u32,
     /// True mean speed over the last [`STEADY_S`] \[rpm\].
@@ -94,6 +104,9 @@ pub struct StartupStats {
     pub runs: usize,
     /// Successful starts.
     pub successes: usize,
+    /// Starts whose verdict is running: in synchronism, no restart in the window, and
+    /// within the verdict's 2 % of the command.
+    pub verdict_running: usize,
     /// The failed runs.
     pub failures: Vec<StartRun>,
     /// Power-on to the first hand-over of every run that had one \[s\].
@@ -168,43 +181,30 @@ pub fn sample(base: &DriveConfig, spread: Spread, rng: &mut SplitMix64) -> (Driv
 /// Runs one start of `config` (command `control.speed_ref_rpm`) for [`RUN_S`].
 pub fn start_once(config: &DriveConfig, sampled: Sampled) -> Result<StartRun, RunError> {
     let command = config.control.speed_ref_rpm;
-    let mut eng = build(config)?;
     let steady_from = RUN_S - STEADY_S;
-    let mut handover = None;
-    let mut steady = TimeStats::default();
-    let mut next = 0.0;
-    // Last instant the true speed was outside the tolerance band.
-    let mut last_out = 0.0;
-    run_to(&mut eng, RUN_S, |e, reason| {
-        if matches!(reason, StopReason::Diode | StopReason::Sensing) {
-            return;
-        }
-        let t = e.plant.time_s();
-        if handover.is_none() && e.controller.status().mode == Mode::Running {
-            handover = Some(t);
-        }
-        if t >= next {
-            next = t + SAMPLE_S;
-            let rpm = e.plant.observe().speed_rpm;
-            if (rpm - command).abs() > TOLERANCE * command {
-                last_out = t;
-            }
-            if t >= steady_from {
-                steady.push(t, rpm);
-            }
-        }
-    })?;
-    let s = eng.controller.status();
-    let mean = steady.mean();
-    let running = s.mode == Mode::Running;
-    let started = running && s.restarts == 0 && (mean - command).abs() <= TOLERANCE * command;
+    let mut sc = Scenario::hold(config.clone(), command, RUN_S);
+    sc.steady_from_s = steady_from;
+    sc.speed_record_s = Some(SAMPLE_S);
+    let out = run(&sc, |_| {})?;
+    let s = &out.summary;
+    // Last recorded instant the true speed was outside the tolerance band.
+    let last_out = out
+        .speed
+        .iter()
+        .filter(|q| (q.1 - command).abs() > TOLERANCE * command)
+        .map(|q| q.0)
+        .fold(0.0, f64::max);
+    let mean = s.speed_mean_rpm;
+    let in_sync = s.verdict.in_sync();
+    let started = in_sync && s.restarts == 0 && (mean - command).abs() <= TOLERANCE * command;
     Ok(StartRun {
         sampled,
         started,
+        verdict: s.verdict,
         restarts: s.restarts,
         mean_rpm: mean,
-        handover_s: handover,
-        within_s: (running && last_out < steady_from).then_some(last_out),
+        handover_s: s.handover_s,
+        within_s: (in_sync && last_out < steady_from).then_some(last_out),
     })
 }
 
@@ -231,6 +231,7 @@ pub fn monte_carlo(
     let mut stats = StartupStats {
         runs: samples,
         successes: 0,
+        verdict_running: 0,
         failures: Vec::new(),
         handover_s: Vec::new(),
         within_s: Vec::new(),
@@ -238,6 +239,7 @@ pub fn monte_carlo(
     for r in runs {
         let r = r?;
         stats.handover_s.extend(r.handover_s);
+        stats.verdict_running += usize::from(r.verdict.is_running());
         if r.started {
             stats.successes += 1;
             stats.within_s.extend(r.within_s);

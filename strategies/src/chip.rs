@@ -402,7 +402,10 @@ impl Chip {
     /// changes by tens of % per sector), so a late crossing would put the whole supply on
     /// a winding of a few ohms for tens of degrees (≈ 2.5 A on the built-in motor, five
     /// times the start-up current) and throw the rotor out of step.
-    fn window_start(&self) -> Option<Ticks> {
+    ///
+    /// Returns the start and, when the guard caps the region (`lm_window_capped`), its end
+    /// θZC later; otherwise it lasts until the detected crossing.
+    fn window(&self) -> Option<(Ticks, Option<Ticks>)> {
         if self.starting() {
             return None;
         }
@@ -410,7 +413,14 @@ impl Chip {
         let expected = self.shifter.expected_crossing()?;
         let (t60, _) = self.shifter.t60();
         let low = window_counts(t60, deg) * clocks::COMMUTATION.0;
-        Some(Ticks(expected.0.saturating_sub(low)))
+        let start = Ticks(expected.0.saturating_sub(low));
+        Some((start, self.guard.capped.then_some(Ticks(start.0 + low))))
+    }
+
+    /// Whether the linear region is in force at `now`.
+    fn in_window(&self, now: Ticks) -> bool {
+        self.window()
+            .is_some_and(|(start, end)| now >= start && end.is_none_or(|e| now < e))
     }
 
     fn step_miss_deadline(&self) -> Ticks {
@@ -444,7 +454,7 @@ impl Chip {
             }
         }
         self.pattern = self.shifter.pattern();
-        self.linear = self.window_start().is_some_and(|w| now >= w);
+        self.linear = self.in_window(now);
         self.linear_seen |= self.linear;
         let fg = self.table.fg(self.shifter.state());
         if fg != self.fg {
@@ -544,10 +554,15 @@ impl Chip {
                 if let Some(e) = self.shifter.post_end() {
                     w = w.min(e);
                 }
-                if let Some(s) = self.window_start()
-                    && s > now
-                {
-                    w = w.min(s);
+                if let Some((s, end)) = self.window() {
+                    if s > now {
+                        w = w.min(s);
+                    }
+                    if let Some(e) = end
+                        && e > now
+                    {
+                        w = w.min(e);
+                    }
                 }
                 if let Some(s) = self.shifter.demag_timeout()
                     && s > now

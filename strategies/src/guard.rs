@@ -6,7 +6,9 @@
 //!   detected crossing. Detection itself stays on everywhere: a crossing that comes before
 //!   the window (accelerating rotor, LM's narrow window at low speed) is taken under PWM.
 //! - `lm`: the same window, shrunk with the measured speed ω (whole degrees, as the chip):
-//!   θZC = 1° + (θmax − 1°)·(ω − ωm)/(ωM − ωm), clamped to [1°, θmax].
+//!   θZC = 1° + (θmax − 1°)·(ω − ωm)/(ωM − ωm), clamped to [1°, θmax]. With
+//!   `lm_window_capped` (default) the region also ends θZC after it began, so a region
+//!   opened early (after a crossing taken early under PWM) cannot stretch to several θZC.
 //! - `df`: PWM never stops; Z_d goes through the [`DigitalFilter`] first.
 //!
 //! A guard is independent of the commutation table, so any guard combines with six-step or
@@ -29,6 +31,8 @@ pub struct Guard {
     pub lm_max_rpm: u32,
     /// The digital filter (clocked only by `df`).
     pub filter: DigitalFilter,
+    /// Whether the linear region ends θZC after its start instead of at the crossing.
+    pub capped: bool,
 }
 
 impl Guard {
@@ -40,6 +44,7 @@ impl Guard {
             lm_min_rpm: p.lm_speed_min_rpm,
             lm_max_rpm: p.lm_speed_max_rpm,
             filter: DigitalFilter::new(p.filter_samples, clocks::COMMUTATION),
+            capped: p.lm_window_capped && p.guard_kind() == GuardKind::Lm,
         }
     }
 

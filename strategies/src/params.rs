@@ -496,6 +496,16 @@ pub struct StrategyParams {
     /// Flip-flops of the digital filter (3 in the chip), clocked at 0.64 µs. Default 3.
     /// Rule: 1..=64.
     pub filter_samples: u32,
+    /// `lm` only: the linear region ends θZC after it began even when the crossing has not
+    /// been detected by then; PWM resumes and detection goes on under it. Default true (not
+    /// the published chip, whose region lasts until the detected crossing: set false).
+    /// Why: a crossing taken early under PWM (a PWM-edge glitch outside LM's narrow window)
+    /// shortens t_60, so the next region opens that much early and, held to the crossing,
+    /// lasts several times θZC; at 3000 rpm such full-voltage pulses reach 0.5 A against a
+    /// 0.03 A running current, the current PI samples them and cuts the duty, and the speed
+    /// loop hunts. Capped, the region adds the θZC/60 of full voltage the LM law sets.
+    /// Rule: any.
+    pub lm_window_capped: bool,
 }
 
 impl Default for StrategyParams {
@@ -508,6 +518,7 @@ impl Default for StrategyParams {
             lm_speed_max_rpm: 12941,
             lm_speed_min_rpm: 1523,
             filter_samples: 3,
+            lm_window_capped: true,
         }
     }
 }
