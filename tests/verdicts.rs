@@ -42,7 +42,10 @@ fn the_nominal_drive_runs_in_synchronism() {
 /// loses the rotor while accelerating near 7 krpm, where the freewheel after a commutation
 /// hides the crossings and the commutation free-runs (speed steps, as (t, rpm), after the
 /// first command).
-const LOST: [(StrategyName, f64, &[(f64, f64)]); 3] = [
+/// Later speed commands: (t \[s\], rpm).
+type Steps = &'static [(f64, f64)];
+
+const LOST: [(StrategyName, f64, Steps); 3] = [
     (StrategyName::TwelveStepDf, 500.0, &[]),
     (StrategyName::SixStep120, 500.0, &[]),
     (StrategyName::SixStep120, 3000.0, &[(1.5, 16_000.0)]),
@@ -195,7 +198,12 @@ fn the_supervisor_leaves_healthy_drives_alone() {
     );
     for name in StrategyName::ALL {
         let mut sc = Scenario::hold(chip(name, true), 6000.0, 5.0);
-        sc.load_steps = vec![(2.0, 2.5e-3), (3.0, 0.0)];
+        sc.load = LoadProfile {
+            coulomb_nm: Profile::constant(0.0)
+                .step_to(2.0, 2.5e-3)
+                .step_to(3.0, 0.0),
+            ..LoadProfile::default()
+        };
         let s = run(&sc, |_| {}).unwrap().summary;
         assert_eq!(s.restarts, 0, "{name}, load step: {}", s.verdict_reason);
     }
