@@ -80,12 +80,10 @@ fn compare(name: StrategyName, rpm: f64, secs: f64, stall_at: f64) -> ChipStatus
     );
     let (a, end_a, ea) = stops(declared, secs, stall_at);
     let (b, end_b, eb) = stops(all, secs, stall_at);
-    // The runs are worth comparing: start-up, hand-over and glitch-driven sensing stops.
-    assert!(
-        ea.controller.status().crossings > 100,
-        "{:?}",
-        ea.controller.status()
-    );
+    // The runs are worth comparing: start-up, hand-over and glitch-driven sensing stops
+    // (a restart clears the crossing count, and a held rotor is restarted).
+    let end = ea.controller.status();
+    assert!(end.crossings > 100 || end.restarts > 0, "{end:?}");
     assert!(a.iter().any(|&(_, r)| r == StopReason::Sensing));
     assert!(a.iter().any(|&(_, r)| r == StopReason::Diode));
     // Sensing stops are left out: a channel the chip starts reading is decided from then
@@ -126,7 +124,8 @@ fn twelve_step_with_declared_reads_runs_like_one_reading_everything() {
 }
 
 /// LM at 2000 rpm forces crossings its window missed; then the rotor is stopped and held,
-/// and the step-miss restarts, their alignments and hand-overs are fed only what the chip
+/// and the restarts (the supervisor sees crossings nobody showed), their alignments and
+/// hand-overs are fed only what the chip
 /// declared, too.
 #[test]
 fn forced_crossings_and_restarts_with_declared_reads_run_like_reading_everything() {
