@@ -284,6 +284,7 @@ fn the_quick_comparison_writes_the_report_folder() {
         "results.json",
         "results.csv",
         "report.md",
+        "report.html",
         "speed_step.svg",
         "load_step.svg",
         "ripple_vs_speed.svg",
@@ -309,6 +310,16 @@ fn the_quick_comparison_writes_the_report_folder() {
     assert!(j["seed"].is_u64());
     let md = std::fs::read_to_string(dir.join("report.md")).unwrap();
     assert!(md.contains("## Metrics") && md.contains("commutation error"));
+    // The page holds every figure the markdown links, inline, and fetches nothing.
+    let html = std::fs::read_to_string(dir.join("report.html")).unwrap();
+    let linked = md.matches("](").count();
+    assert!(
+        linked >= 5 && html.matches("<figure><svg").count() == linked,
+        "{linked}"
+    );
+    assert!(!html.contains("<img") && !html.contains("src=\"http"));
+    // Nothing searched, nothing drawn: --quick writes no empty range figure.
+    assert!(!dir.join("speed_range.svg").exists());
     // Every results.csv column is defined in the report, in the CSV's order.
     let csv = std::fs::read_to_string(dir.join("results.csv")).unwrap();
     let header = csv.lines().next().unwrap();

@@ -150,7 +150,8 @@ pub fn terminal_table(c: &Comparison) -> String {
     s
 }
 
-/// Writes `results.json`, `results.csv`, `report.md` and the SVG plots into `dir`,
+/// Writes `results.json`, `results.csv`, `report.md`, `report.html` (the same report in
+/// one self-contained page) and the SVG plots into `dir`,
 /// returning the files written.
 pub fn write_folder(
     c: &Comparison,
@@ -176,18 +177,34 @@ pub fn write_folder(
     let json = serde_json::to_string_pretty(&record).map_err(std::io::Error::other)?;
     put("results.json", json)?;
     put("results.csv", grid_csv(c))?;
-    put("speed_step.svg", speed_step_chart(c))?;
-    put("load_step.svg", load_step_chart(c))?;
-    put("ripple_vs_speed.svg", ripple_chart(c))?;
-    put(super::results::RANGE_CHART, super::results::range_chart(c))?;
-    put("phase_current.svg", current_chart(c))?;
+    let mut figures = vec![
+        ("speed_step.svg".to_string(), speed_step_chart(c)),
+        ("load_step.svg".to_string(), load_step_chart(c)),
+        ("ripple_vs_speed.svg".to_string(), ripple_chart(c)),
+        ("phase_current.svg".to_string(), current_chart(c)),
+    ];
+    // No range searched (`--quick`): no empty figure.
+    if !c.ranges.is_empty() {
+        figures.push((
+            super::results::RANGE_CHART.to_string(),
+            super::results::range_chart(c),
+        ));
+    }
     let mut crossing_files = Vec::new();
     for t in &c.crossings {
         let name = format!("crossing_{}.svg", t.variant.replace('@', "_"));
-        put(&name, crossing_chart(t))?;
+        figures.push((name.clone(), crossing_chart(t)));
         crossing_files.push(name);
     }
-    put("report.md", markdown(c, config, &crossing_files))?;
+    for (name, svg) in &figures {
+        put(name, svg.clone())?;
+    }
+    let md = markdown(c, config, &crossing_files);
+    put(
+        "report.html",
+        super::html::page("drive-bench report", &md, &figures),
+    )?;
+    put("report.md", md)?;
     Ok(files)
 }
 
@@ -511,15 +528,19 @@ fn crossing_chart(t: &CrossingTrace) -> String {
                 ],
             },
             Panel {
-                y_label: "logic (offset for legibility)".into(),
+                y_label: "Z_d raw (0/1)".into(),
+                series: vec![line("raw", true, &|r| f64::from(r.zd))],
+            },
+            Panel {
+                y_label: "Z_d after the guard (0/1)".into(),
                 series: vec![
-                    line("Z_d raw", true, &|r| f64::from(r.zd)),
-                    line("Z_d filtered + 1.5", true, &|r| f64::from(r.zdf) + 1.5),
-                    line("linear region + 3", true, &|r| f64::from(r.linear) + 3.0),
-                    line("state / 12 + 4.5", true, &|r| {
-                        f64::from(r.state) / 12.0 + 4.5
-                    }),
+                    line("guarded", true, &|r| f64::from(r.zdf)),
+                    line("linear region", true, &|r| f64::from(r.linear)),
                 ],
+            },
+            Panel {
+                y_label: "commutation state".into(),
+                series: vec![line("state", true, &|r| f64::from(r.state))],
             },
         ],
     )

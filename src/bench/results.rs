@@ -90,14 +90,12 @@ pub fn section(c: &Comparison) -> String {
 }
 
 fn speed_range(c: &Comparison, s: &mut String) {
-    let _ = writeln!(
-        s,
-        "\n### Speed range per guard and conduction angle\n\n![{RANGE_CHART}]({RANGE_CHART})\n"
-    );
+    let _ = writeln!(s, "\n### Speed range per guard and conduction angle\n");
     if c.ranges.is_empty() {
         let _ = writeln!(s, "Not searched in this run (`--quick`).");
         return;
     }
+    let _ = writeln!(s, "![{RANGE_CHART}]({RANGE_CHART})\n");
     let _ = writeln!(
         s,
         "| strategy | meter | floor rpm | floor limited by | top rpm | top limited by |\n|---|---|---:|---|---:|---|"

@@ -23,10 +23,10 @@ pub struct Panel {
 const COLORS: [&str; 8] = [
     "#1f77b4", "#d62728", "#2ca02c", "#ff7f0e", "#9467bd", "#8c564b", "#e377c2", "#17becf",
 ];
-const W: f64 = 900.0;
+const W: f64 = 1000.0;
 const PANEL_H: f64 = 220.0;
 const LEFT: f64 = 70.0;
-const RIGHT: f64 = 190.0;
+const RIGHT: f64 = 290.0;
 const TOP: f64 = 40.0;
 const GAP: f64 = 30.0;
 const MAX_POINTS: usize = 4000;

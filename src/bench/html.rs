@@ -1,0 +1,107 @@
+//! `report.html`: the report as one self-contained page an engineer opens in a browser.
+//!
+//! Rendered from `report.md` (one source for both), with every SVG figure inlined, every
+//! table sortable by clicking a column's header (numbers by value, the rest as text), and
+//! nothing fetched from a network: no external style, script or font.
+
+use pulldown_cmark::{Options, Parser, html};
+
+/// The page for `markdown`, whose images named in `figures` (file name, SVG text) are
+/// inlined in place of links.
+pub fn page(title: &str, markdown: &str, figures: &[(String, String)]) -> String {
+    let mut body = String::new();
+    html::push_html(&mut body, Parser::new_ext(markdown, Options::ENABLE_TABLES));
+    for (name, svg) in figures {
+        body = inline_image(&body, name, svg);
+    }
+    format!(
+        "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n<title>{}</title>\n<style>{STYLE}</style>\n</head>\n<body>\n{body}<script>{SORT}</script>\n</body>\n</html>\n",
+        escape(title)
+    )
+}
+
+/// `html` with each `<img src="name" …>` replaced by the figure itself.
+fn inline_image(html: &str, name: &str, svg: &str) -> String {
+    let key = format!("<img src=\"{name}\"");
+    let mut out = String::with_capacity(html.len() + svg.len());
+    let mut rest = html;
+    while let Some(at) = rest.find(&key) {
+        out.push_str(&rest[..at]);
+        let after = &rest[at..];
+        let end = after.find('>').map_or(after.len(), |e| e + 1);
+        out.push_str("<figure>");
+        out.push_str(svg);
+        out.push_str("</figure>");
+        rest = &after[end..];
+    }
+    out.push_str(rest);
+    out
+}
+
+fn escape(s: &str) -> String {
+    s.replace('&', "&amp;")
+        .replace('<', "&lt;")
+        .replace('>', "&gt;")
+}
+
+const STYLE: &str = "body{font-family:sans-serif;max-width:1000px;margin:2em auto;padding:0 1em;line-height:1.45;color:#222}\
+table{border-collapse:collapse;margin:1em 0;font-size:0.9em}\
+th,td{border:1px solid #ccc;padding:0.25em 0.6em}\
+th{background:#f2f2f2;cursor:pointer;user-select:none}\
+th.asc::after{content:' \\25B2'}th.desc::after{content:' \\25BC'}\
+tr:nth-child(even) td{background:#fafafa}\
+pre{background:#f6f6f6;padding:0.8em;overflow-x:auto;font-size:0.85em}\
+code{background:#f3f3f3;padding:0 0.2em}\
+figure{margin:1em 0;overflow-x:auto}figure svg{max-width:100%;height:auto}";
+
+/// Click a header to sort its table by that column; click again to reverse. Cells that
+/// read as numbers (a leading sign, digits, a decimal point, an exponent) sort by value
+/// and come before text such as a verdict or "–".
+const SORT: &str = r#"
+document.querySelectorAll('table').forEach(function (table) {
+  var heads = table.querySelectorAll('thead th');
+  heads.forEach(function (th, col) {
+    th.addEventListener('click', function () {
+      var asc = !th.classList.contains('asc');
+      heads.forEach(function (h) { h.classList.remove('asc', 'desc'); });
+      th.classList.add(asc ? 'asc' : 'desc');
+      var body = table.tBodies[0];
+      var rows = Array.prototype.slice.call(body.rows);
+      var key = function (r) {
+        var t = r.cells[col] ? r.cells[col].textContent.trim() : '';
+        var m = t.match(/^[+-]?\d+(\.\d+)?(e[+-]?\d+)?/i);
+        return m ? [0, parseFloat(m[0]), t] : [1, 0, t];
+      };
+      rows.sort(function (a, b) {
+        var x = key(a), y = key(b);
+        var d = x[0] - y[0] || (x[0] === 0 ? x[1] - y[1] : x[2].localeCompare(y[2]));
+        return asc ? d : -d;
+      });
+      rows.forEach(function (r) { body.appendChild(r); });
+    });
+  });
+});
+"#;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn figures_are_inlined_tables_rendered_and_nothing_is_fetched() {
+        let md = "# R\n\n![speed](speed.svg)\n\n| a | b |\n|---|---:|\n| x | 2 |\n";
+        let svg = "<svg xmlns=\"http://www.w3.org/2000/svg\"><path d=\"M0,0 L1,1\"/></svg>";
+        let p = page("t <1>", md, &[("speed.svg".into(), svg.into())]);
+        assert!(p.contains("<figure><svg") && !p.contains("<img"), "{p}");
+        assert!(
+            p.contains("<table>") && p.contains("<thead>") && p.contains("<th"),
+            "{p}"
+        );
+        assert!(p.contains("<title>t &lt;1&gt;</title>"));
+        // Self-contained: no reference to anything outside the page (the SVG namespace
+        // is an identifier, not a fetch).
+        for fetch in ["src=\"http", "href=\"http", "<link", "@import", "url("] {
+            assert!(!p.contains(fetch), "{fetch}");
+        }
+    }
+}
