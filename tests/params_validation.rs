@@ -36,25 +36,47 @@ fn motor_rules() {
     refused(
         |p| p.motor.resistance_ohm = -2.2,
         "motor.resistance_ohm",
-        "> 0",
+        "1e-4..=1e3",
     );
-    refused(|p| p.motor.inertia_kgm2 = 0.0, "motor.inertia_kgm2", "> 0");
+    refused(
+        |p| p.motor.inertia_kgm2 = 0.0,
+        "motor.inertia_kgm2",
+        "1e-9..=10",
+    );
+    // Physical bounds: a resistance of 1e300 Ω overflowed the network into NaN.
+    refused(
+        |p| p.motor.resistance_ohm = 1e300,
+        "motor.resistance_ohm",
+        "1e-4..=1e3",
+    );
+    // Consistency: two coils cannot couple more than fully.
+    refused(
+        |p| p.motor.mutual_inductance_h = p.motor.self_inductance_h,
+        "motor.mutual_inductance_h",
+        "below motor.self_inductance_h",
+    );
+    // Consistency: a rotor too light for its friction's slope at the solver's step.
+    refused(
+        |p| p.motor.inertia_kgm2 = 1e-8,
+        "motor.inertia_kgm2",
+        "too stiff",
+    );
     refused(
         |p| p.motor.flux_linkage_wb = f64::NAN,
         "motor.flux_linkage_wb",
-        "finite",
+        "1e-6..=1",
     );
     refused(
         |p| p.motor.self_inductance_h = f64::INFINITY,
         "motor.self_inductance_h",
-        "finite",
+        "1e-7..=1",
     );
     refused(|p| p.motor.poles = 0, "motor.poles", "even");
     refused(|p| p.motor.poles = 7, "motor.poles", "even");
     refused(
         |p| p.motor.viscous_friction_nms = -1e-6,
         "motor.viscous_friction_nms",
-        ">= 0",
+        "0..=1",
     );
     refused(
         |p| p.motor.mutual_inductance_h = -1e-4,
