@@ -86,6 +86,7 @@ fn line(name: &str, points: Vec<(f64, f64)>) -> Series {
         name: name.into(),
         points,
         steps: false,
+        ..Series::default()
     }
 }
 
@@ -94,6 +95,7 @@ fn steps(name: &str, points: Vec<(f64, f64)>) -> Series {
         name: name.into(),
         points,
         steps: true,
+        ..Series::default()
     }
 }
 

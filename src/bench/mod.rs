@@ -352,6 +352,14 @@ pub struct Comparison {
     pub threads: usize,
 }
 
+impl Comparison {
+    /// The palette index of a variant's label: its place in the comparison, so that a
+    /// strategy has one colour in every chart.
+    pub fn color_of(&self, label: &str) -> Option<usize> {
+        self.variants.iter().position(|v| v.label == label)
+    }
+}
+
 enum Job {
     Grid(usize, f64),
     Range(usize, range::Meter),

@@ -376,6 +376,13 @@ fn speed_step_chart(c: &Comparison) -> String {
                         name: format!("{}, anti-windup {}", s.variant, s.anti_windup.as_str()),
                         points: s.speed.iter().copied().filter(|p| p.0 >= from).collect(),
                         steps: false,
+                        // The strategy's colour; the anti-windup variant's dash.
+                        color: c.color_of(&s.variant),
+                        dash: match s.anti_windup {
+                            AntiWindup::Off => None,
+                            AntiWindup::Current => Some("6 3"),
+                            AntiWindup::Both => Some("2 2"),
+                        },
                     })
                     .collect(),
             }
@@ -401,6 +408,8 @@ fn load_step_chart(c: &Comparison) -> String {
                 .filter(|p| p.0 > c.plan.load.2 - 0.5)
                 .collect(),
             steps: false,
+            color: c.color_of(&l.variant),
+            dash: None,
         })
         .collect();
     chart(
@@ -431,6 +440,8 @@ fn ripple_chart(c: &Comparison) -> String {
                     .map(|g| (g.summary.speed_ref_rpm, f(&g.summary)))
                     .collect(),
                 steps: false,
+                color: c.color_of(&v.label),
+                dash: None,
             })
             .collect()
     };
@@ -463,7 +474,7 @@ fn current_chart(c: &Comparison) -> String {
             let line = |name: &str, f: fn(&crate::scenario::TraceRow) -> f64| Series {
                 name: name.into(),
                 points: t.rows.iter().map(|r| ((r.t_s - t0) * 1e3, f(r))).collect(),
-                steps: false,
+                ..Series::default()
             };
             Panel {
                 y_label: format!("{} [A]", t.variant),
@@ -514,6 +525,7 @@ fn crossing_chart(t: &CrossingTrace) -> String {
         name: name.into(),
         points: win.iter().map(|r| (x(r), f(r))).collect(),
         steps,
+        ..Series::default()
     };
     chart(
         &format!("{}: around a rising crossing of e_u (θe = 0)", t.variant),

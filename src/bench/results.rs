@@ -64,6 +64,8 @@ pub fn range_chart(c: &Comparison) -> String {
                         name: format!("{} {}", k + 1, r.strategy),
                         points: vec![(lo, y), (hi, y)],
                         steps: false,
+                        color: c.color_of(&r.strategy),
+                        dash: None,
                     })
                 })
                 .collect(),

@@ -3,6 +3,7 @@
 use std::fmt::Write;
 
 /// One line.
+#[derive(Clone, Debug, Default)]
 pub struct Series {
     /// Legend text.
     pub name: String,
@@ -10,6 +11,12 @@ pub struct Series {
     pub points: Vec<(f64, f64)>,
     /// Draw as steps (sample-and-hold logic signals) instead of straight segments.
     pub steps: bool,
+    /// Palette index; `None`: the series' position in its panel. Charts that compare
+    /// strategies give each strategy its index in the comparison, so a strategy keeps its
+    /// colour from chart to chart.
+    pub color: Option<usize>,
+    /// SVG dash pattern (e.g. "6 3"); `None`: solid.
+    pub dash: Option<&'static str>,
 }
 
 /// One panel: its y label and lines.
@@ -139,7 +146,10 @@ pub fn chart(title: &str, x_label: &str, panels: &[Panel]) -> String {
             escape(&panel.y_label)
         );
         for (j, series) in panel.series.iter().enumerate() {
-            let color = COLORS[j % COLORS.len()];
+            let color = COLORS[series.color.unwrap_or(j) % COLORS.len()];
+            let dash = series
+                .dash
+                .map_or(String::new(), |d| format!(r#" stroke-dasharray="{d}""#));
             let stride = series.points.len().div_ceil(MAX_POINTS).max(1);
             let mut d = String::new();
             let mut prev_y = None;
@@ -163,7 +173,7 @@ pub fn chart(title: &str, x_label: &str, panels: &[Panel]) -> String {
             }
             let _ = writeln!(
                 s,
-                r#"<path d="{d}" fill="none" stroke="{color}" stroke-width="1.3"/>"#
+                r#"<path d="{d}" fill="none" stroke="{color}" stroke-width="1.3"{dash}/>"#
             );
             // A lone point draws no line: mark it (a one-speed grid, a single run).
             if let [(cx, cy)] = drawn[..] {
@@ -175,7 +185,7 @@ pub fn chart(title: &str, x_label: &str, panels: &[Panel]) -> String {
             let ly = top + 14.0 + 16.0 * j as f64;
             let _ = writeln!(
                 s,
-                r#"<line x1="{0}" x2="{1}" y1="{2}" y2="{2}" stroke="{color}" stroke-width="2"/><text x="{3}" y="{4}">{5}</text>"#,
+                r#"<line x1="{0}" x2="{1}" y1="{2}" y2="{2}" stroke="{color}" stroke-width="2"{dash}/><text x="{3}" y="{4}">{5}</text>"#,
                 LEFT + pw + 10.0,
                 LEFT + pw + 30.0,
                 ly - 4.0,
@@ -224,6 +234,7 @@ mod tests {
                     name: "a&b".into(),
                     points: vec![(0.0, 0.0), (1.0, 1.0)],
                     steps: false,
+                    ..Series::default()
                 }],
             }],
         );
@@ -246,16 +257,40 @@ mod tests {
                         name: "one".into(),
                         points: vec![(3000.0, 1.0)],
                         steps: false,
+                        ..Series::default()
                     },
                     Series {
                         name: "nan first".into(),
                         points: vec![(0.0, f64::NAN), (1.0, 1.0), (2.0, 2.0)],
                         steps: false,
+                        ..Series::default()
                     },
                 ],
             }],
         );
         assert_eq!(svg.matches("<circle").count(), 1);
         assert!(!svg.contains("d=\" L") && !svg.contains("d=\"L"), "{svg}");
+    }
+
+    #[test]
+    fn a_series_colour_follows_its_index_not_its_position() {
+        let one = |color| Series {
+            name: "a".into(),
+            points: vec![(0.0, 0.0), (1.0, 1.0)],
+            color,
+            dash: Some("6 3"),
+            ..Series::default()
+        };
+        let svg = chart(
+            "t",
+            "x",
+            &[Panel {
+                y_label: "y".into(),
+                series: vec![one(Some(3))],
+            }],
+        );
+        assert!(svg.contains(&format!("stroke=\"{}\"", COLORS[3])));
+        assert!(!svg.contains(&format!("stroke=\"{}\"", COLORS[0])));
+        assert!(svg.contains("stroke-dasharray=\"6 3\""));
     }
 }
