@@ -132,16 +132,21 @@ pub fn terminal_table(c: &Comparison) -> String {
             )),
             at.map_or("–".into(), |g| format!("{:.3}", g.summary.current_rms_a)),
             format!("{} / {}", step(AntiWindup::Current), step(AntiWindup::Off)),
-            load.map_or("–".into(), |l| format!(
-                "{:.0} / {}",
-                l.response.dip,
-                opt(l.response.recovery_s, 1.0, 2)
-            )),
+            // A drive that failed the load run has no dip to show: its verdict instead.
+            load.map_or("–".into(), |l| if l.verdict.in_sync() {
+                format!(
+                    "{:.0} / {}",
+                    l.response.dip,
+                    opt(l.response.recovery_s, 1.0, 2)
+                )
+            } else {
+                l.verdict.as_str().to_string()
+            }),
         );
     }
     let _ = writeln!(
         s,
-        "grid ok: speeds of {:?} rpm held within 2 % without restart; err/ripple/I at {trace_rpm:.0} rpm; full duty: after the step down out of full duty, anti-windup on the current PI / off; load {:.1} mN·m at {:.0} rpm",
+        "grid ok: speeds of {:?} rpm held within 2 % without restart; err/ripple/I at {trace_rpm:.0} rpm; full duty ms: how long the voltage command stays at >= 95 % of the carrier after the step down from beyond reach, anti-windup on the current PI / off; load dip: the deepest speed drop and the time back within 2 % after a {:.1} mN·m load at {:.0} rpm",
         c.plan.grid_rpm,
         c.plan.load.1 * 1e3,
         c.plan.load.0
