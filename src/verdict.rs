@@ -184,6 +184,105 @@ impl SyncStreak {
     }
 }
 
+/// The verdict of a drive while it runs (the FMU's `verdict` output), by the run's rule
+/// applied to the recent past instead of a steady window:
+/// - non-finite: the plant's state is not finite now;
+/// - gave-up: the controller switched off for good;
+/// - not-started: no start (two electrical turns of commutations in synchronism) since the
+///   drive was (re)started;
+/// - stalled: the true speed, low-passed with a time constant of [`LiveVerdict::TAU_S`], is
+///   below `stalled_fraction` of the command;
+/// - lost-sync: a commutation fell outside ±`sync_error_deg` of the true rotor since the
+///   last two turns in synchronism;
+/// - off-speed: in synchronism, the low-passed speed outside `speed_tolerance` of the
+///   command (during any speed transient, too);
+/// - running: otherwise.
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub struct LiveVerdict {
+    rule: VerdictRule,
+    streak: SyncStreak,
+    started: bool,
+    lost: bool,
+    mean_rpm: f64,
+    last_t_s: Option<f64>,
+}
+
+impl LiveVerdict {
+    /// Time constant of the low-passed true speed \[s\].
+    pub const TAU_S: f64 = 0.1;
+
+    /// A drive at rest, judged by `rule` on a table of `states_per_turn` states.
+    pub fn new(rule: VerdictRule, states_per_turn: u32) -> Self {
+        LiveVerdict {
+            rule,
+            streak: SyncStreak::new(rule.sync_error_deg, rule.started_turns, states_per_turn),
+            started: false,
+            lost: false,
+            mean_rpm: 0.0,
+            last_t_s: None,
+        }
+    }
+
+    /// A commutation into a state starting at `boundary_deg`, the rotor at `theta_deg`.
+    pub fn commutation(&mut self, theta_deg: f64, boundary_deg: f64) {
+        let ok = self.streak.commutation(theta_deg, boundary_deg);
+        if self.streak.in_sync() {
+            self.started = true;
+            self.lost = false;
+        } else if self.started && !ok {
+            self.lost = true;
+        }
+    }
+
+    /// The controller is off or starting (state 0): a start begins again.
+    pub fn restart(&mut self) {
+        self.streak.reset();
+        self.started = false;
+        self.lost = false;
+    }
+
+    /// The true speed `rpm` at `t_s` (any spacing; a step of dt weighs 1 − e^(−dt/τ)).
+    pub fn speed(&mut self, t_s: f64, rpm: f64) {
+        let w = match self.last_t_s {
+            Some(t0) => 1.0 - (-(t_s - t0).max(0.0) / Self::TAU_S).exp(),
+            None => 1.0,
+        };
+        self.mean_rpm += w * (rpm - self.mean_rpm);
+        self.last_t_s = Some(t_s);
+    }
+
+    /// Whether the last two turns of commutations followed the true rotor.
+    pub fn in_sync(&self) -> bool {
+        self.streak.in_sync()
+    }
+
+    /// The verdict against `command_rpm`, with the plant's state `finite` and the
+    /// controller `gave_up`.
+    pub fn verdict(&self, command_rpm: f64, finite: bool, gave_up: bool) -> Verdict {
+        let command = command_rpm.abs().max(1.0);
+        if !finite || !self.mean_rpm.is_finite() {
+            Verdict::NonFinite
+        } else if gave_up {
+            Verdict::GaveUp
+        } else if !self.started {
+            Verdict::NotStarted
+        } else if self.mean_rpm.abs() < self.rule.stalled_fraction * command {
+            Verdict::Stalled
+        } else if self.lost {
+            Verdict::LostSync
+        } else if (self.mean_rpm - command_rpm).abs() > self.rule.speed_tolerance * command {
+            Verdict::OffSpeed
+        } else {
+            Verdict::Running
+        }
+    }
+
+    /// The low-passed true speed \[rpm\].
+    pub fn mean_rpm(&self) -> f64 {
+        self.mean_rpm
+    }
+}
+
 /// What the run showed, collected while it runs (see [`Witness::commutation`] and
 /// [`Witness::instant`]) and judged at its end.
 #[derive(Clone, Debug, Default)]
@@ -533,5 +632,36 @@ mod tests {
         codes.dedup();
         assert_eq!(codes.len(), Verdict::ALL.len());
         assert!(!codes[1..].contains(&1) && !codes.contains(&2));
+    }
+
+    #[test]
+    fn the_live_verdict_follows_start_slip_and_speed() {
+        // Six states a turn: two turns in synchronism make a start.
+        let mut v = LiveVerdict::new(VerdictRule::default(), 6);
+        v.speed(0.0, 0.0);
+        assert_eq!(v.verdict(3000.0, true, false), Verdict::NotStarted);
+        for k in 0..12 {
+            v.commutation(f64::from(k) * 60.0 + 5.0, f64::from(k) * 60.0);
+        }
+        // Started, but the low-passed speed is still 0: stalled.
+        assert_eq!(v.verdict(3000.0, true, false), Verdict::Stalled);
+        // 3000 rpm held for 10 τ: the low-pass is within 5e-5 of it.
+        for k in 1..=1000 {
+            v.speed(f64::from(k) * 1e-3, 3000.0);
+        }
+        assert!((v.mean_rpm() - 3000.0).abs() < 0.15, "{}", v.mean_rpm());
+        assert_eq!(v.verdict(3000.0, true, false), Verdict::Running);
+        assert_eq!(v.verdict(3200.0, true, false), Verdict::OffSpeed);
+        // A commutation 40° off: lost until two turns in synchronism again.
+        v.commutation(100.0, 60.0);
+        assert_eq!(v.verdict(3000.0, true, false), Verdict::LostSync);
+        for k in 0..12 {
+            v.commutation(f64::from(k) * 60.0, f64::from(k) * 60.0);
+        }
+        assert_eq!(v.verdict(3000.0, true, false), Verdict::Running);
+        assert_eq!(v.verdict(3000.0, false, false), Verdict::NonFinite);
+        assert_eq!(v.verdict(3000.0, true, true), Verdict::GaveUp);
+        v.restart();
+        assert_eq!(v.verdict(3000.0, true, false), Verdict::NotStarted);
     }
 }
