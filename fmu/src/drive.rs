@@ -5,9 +5,10 @@ use crate::variables::{Input, Output, Role, Text, table};
 use bldc_drive::DriveConfig;
 use bldc_drive::drive::{DriveEngine, build, build_plugin};
 use bldc_drive::drive_core::{EngineError, ParamError, StopReason, Ticks};
+use bldc_drive::strategies::Mode;
 use bldc_drive::strategies::PluginLibrary;
 use bldc_drive::strategies::params::SPEED_CMD_MAX_RPM;
-use bldc_drive::verdict::{SyncStreak, VerdictRule};
+use bldc_drive::verdict::{LiveVerdict, Verdict, VerdictRule};
 use std::path::{Path, PathBuf};
 
 /// One thing that happened to a drive after it was built; replaying the list on a drive
@@ -36,39 +37,44 @@ pub struct Drive {
     sync: Sync,
 }
 
-/// Whether the last two electrical turns of commutations followed the true rotor (each
-/// within ±30° of its table boundary, as the run verdicts judge synchronism).
+/// The commutation and the speed against the true rotor, for the `in_sync` and `verdict`
+/// outputs: the run verdicts' rule applied while the drive runs (see
+/// [`bldc_drive::verdict::LiveVerdict`]).
 #[derive(Copy, Clone, Debug)]
 struct Sync {
-    streak: SyncStreak,
+    live: LiveVerdict,
     last_state: u8,
 }
 
 impl Sync {
     fn new(engine: &DriveEngine) -> Self {
-        let rule = VerdictRule::default();
         let table = engine.controller.table();
         Sync {
-            streak: SyncStreak::new(
-                rule.sync_error_deg,
-                rule.started_turns,
-                table.states_per_turn(),
-            ),
+            live: LiveVerdict::new(VerdictRule::default(), table.states_per_turn()),
             last_state: 0,
         }
     }
 
-    /// At an engine stop: a commutation is checked against the true angle there.
+    /// At an engine stop: a commutation is checked against the true angle there, and the
+    /// true speed feeds the verdict's low-pass.
     fn at(&mut self, e: &DriveEngine) {
         let state = e.controller.status().state;
         if state == 0 {
-            self.streak.reset();
+            self.live.restart();
         } else if state != self.last_state && self.last_state != 0 {
-            let theta = e.plant.observe().theta_e.to_degrees();
+            let o = e.plant.observe();
             let boundary = e.controller.table().state_start_deg(state);
-            self.streak.commutation(theta, boundary);
+            self.live.commutation(o.theta_e.to_degrees(), boundary);
+            self.live.speed(o.t_s, o.speed_rpm);
         }
         self.last_state = state;
+    }
+
+    /// At a communication point: the speed there too (a drive that does not commutate
+    /// still has a speed).
+    fn end(&mut self, e: &DriveEngine) {
+        let o = e.plant.observe();
+        self.live.speed(o.t_s, o.speed_rpm);
     }
 }
 
@@ -229,7 +235,9 @@ impl Drive {
             if !matches!(reason, StopReason::Diode | StopReason::Sensing) {
                 sync.at(e);
             }
-        })
+        })?;
+        self.sync.end(&self.engine);
+        Ok(())
     }
 
     /// Replays one recorded event.
@@ -275,7 +283,23 @@ impl Drive {
                 Output::Duty => f64::from(st.duty) / top,
                 Output::State => f64::from(st.state),
                 Output::Restarts => f64::from(st.restarts.min(i32::MAX as u32)),
-                Output::InSync => f64::from(u8::from(self.sync.streak.in_sync())),
+                Output::InSync => f64::from(u8::from(self.sync.live.in_sync())),
+                Output::Verdict => {
+                    let finite = obs.speed_rpm.is_finite()
+                        && obs.i.u.is_finite()
+                        && obs.i.v.is_finite()
+                        && obs.i.w.is_finite();
+                    let v = self.sync.live.verdict(
+                        self.engine.controller.speed_ref_rpm(),
+                        finite,
+                        st.mode == Mode::GaveUp,
+                    );
+                    // Enumeration items count from 1, in `Verdict::ALL`'s order.
+                    Verdict::ALL
+                        .iter()
+                        .position(|&x| x == v)
+                        .map_or(0.0, |k| (k + 1) as f64)
+                }
             };
         }
     }
@@ -340,6 +364,39 @@ mod tests {
         let mut out = [0.0; 2];
         d.outputs(&[Output::InSync, Output::SpeedRpm], &mut out);
         (out[0], out[1])
+    }
+
+    /// The `verdict` output after `t_s` with the variables `set`, as a library verdict.
+    fn verdict_after(set: &[(&str, f64)], t_s: f64) -> Verdict {
+        let mut values: Vec<f64> = table().iter().map(|v| v.start().unwrap_or(0.0)).collect();
+        for &(name, x) in set {
+            values[crate::variables::vr_of(name).unwrap() as usize] = x;
+        }
+        let texts = vec![String::new(); table().len()];
+        let mut d = Drive::new(&values, &texts, None).unwrap();
+        d.run_to(Ticks::from_seconds(t_s).unwrap()).unwrap();
+        let mut out = [0.0];
+        d.outputs(&[Output::Verdict], &mut out);
+        Verdict::ALL[out[0] as usize - 1]
+    }
+
+    /// The same cases the run verdicts judge (tests/verdicts.rs), judged live.
+    #[test]
+    fn the_verdict_output_judges_as_a_run_does() {
+        assert_eq!(verdict_after(&[], 3.0), Verdict::Running);
+        // Before the hand-over (≈ 0.75 s) nothing has started.
+        assert_eq!(verdict_after(&[], 0.5), Verdict::NotStarted);
+        // Beyond the top speed the voltage allows: in synchronism, off-speed.
+        assert_eq!(
+            verdict_after(&[("speed_ref_rpm", 16000.0)], 3.0),
+            Verdict::OffSpeed
+        );
+        // Locked on false crossings with the rotor stopped (the chip as published).
+        let v = verdict_after(
+            &[("speed_ref_rpm", 500.0), ("control.supervisor", 0.0)],
+            3.0,
+        );
+        assert!(matches!(v, Verdict::Stalled | Verdict::LostSync), "{v}");
     }
 
     #[test]

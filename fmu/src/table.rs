@@ -383,5 +383,7 @@ pub(crate) fn build_table() -> Vec<Variable> {
                 Ok(())
             },
         }, "", "lm only (not in the published chip): the linear region ends θZC after it began even if the crossing has not been detected, so a region opened early cannot hold full voltage for several θZC"),
+        output("verdict", Kind::Enumeration(EnumType::Verdict), Output::Verdict, "",
+            "The run verdict now, judged from the true rotor as drive-bench judges a run, on the recent past: running, off_speed (in synchronism, the true speed low-passed over 0.1 s outside ±2 % of the command), lost_sync (a commutation beyond ±30° of the true rotor since the last two turns in synchronism), stalled (below 10 % of the command), not_started (no two turns in synchronism since the last start), gave_up, non_finite"),
     ]
 }

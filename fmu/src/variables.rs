@@ -9,6 +9,7 @@ use crate::table::{build_table, choice_name, strategy_choices};
 use bldc_drive::DriveConfig;
 use bldc_drive::drive_core::ParamError;
 use bldc_drive::drive_core::pwm::PwmSchemeKind;
+use bldc_drive::verdict::Verdict;
 use std::sync::OnceLock;
 
 /// Reads a value from a config (as the f64 every variable is stored as).
@@ -38,6 +39,8 @@ pub enum EnumType {
     Strategy,
     /// PWM scheme ([`PwmSchemeKind::ALL`]).
     PwmScheme,
+    /// The run verdict ([`Verdict::ALL`], with `_` for `-`).
+    Verdict,
 }
 
 impl EnumType {
@@ -46,6 +49,7 @@ impl EnumType {
         match self {
             EnumType::Strategy => "Strategy",
             EnumType::PwmScheme => "PwmScheme",
+            EnumType::Verdict => "Verdict",
         }
     }
 
@@ -59,6 +63,10 @@ impl EnumType {
             EnumType::PwmScheme => PwmSchemeKind::ALL
                 .iter()
                 .map(|k| k.name().to_string())
+                .collect(),
+            EnumType::Verdict => Verdict::ALL
+                .iter()
+                .map(|v| v.as_str().replace('-', "_"))
                 .collect(),
         }
     }
@@ -100,6 +108,8 @@ pub enum Output {
     Restarts,
     /// 1 while the last two electrical turns of commutations followed the true rotor.
     InSync,
+    /// The run verdict now (an item of [`EnumType::Verdict`]).
+    Verdict,
 }
 
 /// What a variable is and where its value comes from.
@@ -219,6 +229,7 @@ mod tests {
                 "state",
                 "restarts",
                 "in_sync",
+                "verdict",
             ]
         );
     }

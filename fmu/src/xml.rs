@@ -109,7 +109,7 @@ fn units_and_types() -> String {
         let _ = writeln!(x, "    <Unit name=\"{}\">{}</Unit>", esc(u), base_unit(u));
     }
     x.push_str("  </UnitDefinitions>\n  <TypeDefinitions>\n");
-    for t in [EnumType::Strategy, EnumType::PwmScheme] {
+    for t in [EnumType::Strategy, EnumType::PwmScheme, EnumType::Verdict] {
         let _ = writeln!(
             x,
             "    <SimpleType name=\"{}\">\n      <Enumeration>",
@@ -292,6 +292,7 @@ mod tests {
             "control.startup_conduction_deg",
             "control.supervisor_blind_sectors",
             "strategy.lm_window_capped",
+            "verdict",
         ];
         let n = table().len();
         let tail: Vec<&str> = table()[n - appended.len()..]
