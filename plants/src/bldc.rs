@@ -126,17 +126,17 @@ pub struct PlantStats {
 }
 
 /// Cubic Hermite interpolation of one step (states and derivatives at both ends), used
-/// to find where a freewheeling current crosses zero.
-#[derive(Copy, Clone, Debug)]
-struct Dense {
-    x0: State,
-    f0: State,
-    x1: State,
-    f1: State,
+/// to find where a freewheeling current crosses zero. It borrows the step's states: a
+/// copy of four states per step costs more than the search usually does.
+struct Dense<'a> {
+    x0: &'a State,
+    f0: &'a State,
+    x1: &'a State,
+    f1: &'a State,
     h: f64,
 }
 
-impl Dense {
+impl Dense<'_> {
     /// Component `k` of the interpolated state at fraction `s` ∈ [0, 1] of the step.
     fn component(&self, k: usize, s: f64) -> f64 {
         let (s2, s3) = (s * s, s * s * s);
@@ -766,7 +766,7 @@ impl BldcPlant {
         s1: &Solution,
         b0: (f64, f64, f64),
     ) -> Option<(f64, Phase, Option<State>)> {
-        let (x0, x1, h_full) = (&d.x0, &d.x1, d.h);
+        let (x0, x1, h_full) = (d.x0, d.x1, d.h);
         let mut hit = self.triggered(x0, x1, s1);
         for (h, m) in hit.iter_mut().zip(self.muted) {
             *h &= !m;
@@ -787,7 +787,7 @@ impl BldcPlant {
             }
             if let Some(s) = self.interior_reversal(d, p) {
                 let h = s * h_full;
-                let x = self.integrate_from(x0, h, b0, d.f0);
+                let x = self.integrate_from(x0, h, b0, *d.f0);
                 if self.event_margin(&x, &self.start, p) < 0.0 {
                     hit[k] = true;
                     bracket[k] = h;
@@ -806,7 +806,7 @@ impl BldcPlant {
                 let mut done = false;
                 for _ in 0..3 {
                     // Newton on the step's solution itself, from the dense guess.
-                    let x = self.integrate_from(x0, h, b0, d.f0);
+                    let x = self.integrate_from(x0, h, b0, *d.f0);
                     if x[k].abs() < 1e-9 {
                         done = true;
                         at = Some(x);
@@ -836,10 +836,10 @@ impl BldcPlant {
                 if done {
                     h
                 } else {
-                    self.locate(x0, d.f0, h_full, p)
+                    self.locate(x0, *d.f0, h_full, p)
                 }
             } else {
-                self.locate(x0, d.f0, bracket[k], p)
+                self.locate(x0, *d.f0, bracket[k], p)
             };
             if first.is_none_or(|(h0, _, _)| h < h0) {
                 first = Some((h, p, at));
@@ -1209,10 +1209,10 @@ impl BldcPlant {
             let (mut f1, mut s1) = self.deriv_and_solution(&x1, b0);
             let mut event = None;
             let step = Dense {
-                x0,
-                f0,
-                x1,
-                f1,
+                x0: &x0,
+                f0: &f0,
+                x1: &x1,
+                f1: &f1,
                 h: t1 - t0,
             };
             if let Some((h, p, at)) = self.first_event(&step, &s1, b0) {
