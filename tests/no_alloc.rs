@@ -6,17 +6,19 @@ mod common;
 use bldc_drive::drive_core::{OpenLoopSixStep, Ticks};
 use bldc_drive::plants::PlantParams;
 use std::alloc::{GlobalAlloc, Layout, System};
-use std::sync::atomic::{AtomicI64, AtomicU64, Ordering};
+use std::cell::Cell;
 
 struct Counting;
-static ALLOCS: AtomicU64 = AtomicU64::new(0);
-/// Bytes allocated minus bytes freed on the counting thread, and the highest it reached.
-static LIVE: AtomicI64 = AtomicI64::new(0);
-static PEAK: AtomicI64 = AtomicI64::new(0);
 
 thread_local! {
-    // Only the test's own thread is counted: the harness may allocate on other threads.
-    static COUNTING: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
+    // Only the test's own thread is counted, into its own counters: the harness may
+    // allocate on other threads, and the tests here count concurrently (shared counters
+    // made one test see another's allocations).
+    static COUNTING: Cell<bool> = const { Cell::new(false) };
+    static ALLOCS: Cell<u64> = const { Cell::new(0) };
+    /// Bytes allocated minus bytes freed on this thread, and the highest it reached.
+    static LIVE: Cell<i64> = const { Cell::new(0) };
+    static PEAK: Cell<i64> = const { Cell::new(0) };
 }
 
 // SAFETY: forwards to the system allocator unchanged; only counts calls.
@@ -24,17 +26,19 @@ thread_local! {
 unsafe impl GlobalAlloc for Counting {
     unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
         if COUNTING.with(|c| c.get()) {
-            ALLOCS.fetch_add(1, Ordering::Relaxed);
-            let live =
-                LIVE.fetch_add(layout.size() as i64, Ordering::Relaxed) + layout.size() as i64;
-            PEAK.fetch_max(live, Ordering::Relaxed);
+            ALLOCS.with(|n| n.set(n.get() + 1));
+            let live = LIVE.with(|l| {
+                l.set(l.get() + layout.size() as i64);
+                l.get()
+            });
+            PEAK.with(|p| p.set(p.get().max(live)));
         }
         // SAFETY: same contract as the caller's.
         unsafe { System.alloc(layout) }
     }
     unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
         if COUNTING.with(|c| c.get()) {
-            LIVE.fetch_sub(layout.size() as i64, Ordering::Relaxed);
+            LIVE.with(|l| l.set(l.get() - layout.size() as i64));
         }
         // SAFETY: same contract as the caller's.
         unsafe { System.dealloc(ptr, layout) }
@@ -47,9 +51,9 @@ static GLOBAL: Counting = Counting;
 /// Allocations made on this thread while `f` runs.
 fn allocations_during(f: impl FnOnce()) -> u64 {
     COUNTING.with(|c| c.set(true));
-    let before = ALLOCS.load(Ordering::Relaxed);
+    let before = ALLOCS.with(Cell::get);
     f();
-    let after = ALLOCS.load(Ordering::Relaxed);
+    let after = ALLOCS.with(Cell::get);
     COUNTING.with(|c| c.set(false));
     after - before
 }
@@ -58,11 +62,11 @@ fn allocations_during(f: impl FnOnce()) -> u64 {
 /// start \[bytes\].
 fn peak_heap_during(f: impl FnOnce()) -> i64 {
     COUNTING.with(|c| c.set(true));
-    let start = LIVE.load(Ordering::Relaxed);
-    PEAK.store(start, Ordering::Relaxed);
+    let start = LIVE.with(Cell::get);
+    PEAK.with(|p| p.set(start));
     f();
     COUNTING.with(|c| c.set(false));
-    PEAK.load(Ordering::Relaxed) - start
+    PEAK.with(Cell::get) - start
 }
 
 #[test]

@@ -126,17 +126,17 @@ pub struct PlantStats {
 }
 
 /// Cubic Hermite interpolation of one step (states and derivatives at both ends), used
-/// to find where a freewheeling current crosses zero.
-#[derive(Copy, Clone, Debug)]
-struct Dense {
-    x0: State,
-    f0: State,
-    x1: State,
-    f1: State,
+/// to find where a freewheeling current crosses zero. It borrows the step's states: a
+/// copy of four states per step costs more than the search usually does.
+struct Dense<'a> {
+    x0: &'a State,
+    f0: &'a State,
+    x1: &'a State,
+    f1: &'a State,
     h: f64,
 }
 
-impl Dense {
+impl Dense<'_> {
     /// Component `k` of the interpolated state at fraction `s` ∈ [0, 1] of the step.
     fn component(&self, k: usize, s: f64) -> f64 {
         let (s2, s3) = (s * s, s * s * s);
@@ -494,7 +494,7 @@ impl BldcPlant {
     /// `base` holds an angle near x's with its sine and cosine (every angle inside the
     /// step is reached from it by angle addition). The modal form's exact currents where
     /// there is one (sinusoidal back-EMF), else RK4.
-    fn integrate_from(&self, x: &State, h: f64, base: (f64, f64, f64), k1: State) -> State {
+    fn integrate_from(&self, x: &State, h: f64, base: (f64, f64, f64), k1: &State) -> State {
         match &self.form().1 {
             Some(md) if self.modal => self.flow_from(md, x, h, base, k1),
             _ => self.rk4_from(x, h, base, k1),
@@ -505,7 +505,7 @@ impl BldcPlant {
     /// speed changing at the acceleration in `k1` (to first order in it); speed, angle and
     /// energy integrals by RK4's weights on those currents (for the energies, whose rates
     /// do not depend on them, that is Simpson's rule).
-    fn flow_from(&self, md: &Modal, x: &State, h: f64, base: (f64, f64, f64), k1: State) -> State {
+    fn flow_from(&self, md: &Modal, x: &State, h: f64, base: (f64, f64, f64), k1: &State) -> State {
         let (w0, th0) = (x[OMEGA], x[THETA]);
         let kl = self.lambda * self.pp;
         let w2 = w0 + 0.5 * h * k1[OMEGA];
@@ -519,7 +519,7 @@ impl BldcPlant {
             omega: omega_e,
             amp: kl * w0,
             slope: kl * a,
-            quad: 0.5 * kl * self.jerk(x, &k1, sc0),
+            quad: 0.5 * kl * self.jerk(x, k1, sc0),
             d1: -0.5 * self.pp * a * h,
             d2: 0.5 * self.pp * a,
         };
@@ -621,9 +621,9 @@ impl BldcPlant {
     }
 
     /// One RK4 step from `x` with the derivative there, `k1`, known.
-    fn rk4_from(&self, x: &State, h: f64, base: (f64, f64, f64), k1: State) -> State {
+    fn rk4_from(&self, x: &State, h: f64, base: (f64, f64, f64), k1: &State) -> State {
         let stage = |k: &State, a: f64| -> Dyn { std::array::from_fn(|j| x[j] + k[j] * a) };
-        let k2 = self.deriv(&stage(&k1, 0.5 * h), base);
+        let k2 = self.deriv(&stage(k1, 0.5 * h), base);
         let k3 = self.deriv(&stage(&k2, 0.5 * h), base);
         let k4 = self.deriv(&stage(&k3, h), base);
         x + (k1 + (k2 + k3) * 2.0 + k4) * (h / 6.0)
@@ -708,7 +708,7 @@ impl BldcPlant {
     fn locate(&mut self, x0: &State, k1: State, h_full: f64, p: Phase) -> f64 {
         let base = Self::base(x0);
         let g = |pl: &Self, h: f64| {
-            let x = pl.integrate_from(x0, h, base, k1);
+            let x = pl.integrate_from(x0, h, base, &k1);
             let s = pl.solve_near(&x, base);
             pl.event_margin(&x, &s, p)
         };
@@ -766,7 +766,7 @@ impl BldcPlant {
         s1: &Solution,
         b0: (f64, f64, f64),
     ) -> Option<(f64, Phase, Option<State>)> {
-        let (x0, x1, h_full) = (&d.x0, &d.x1, d.h);
+        let (x0, x1, h_full) = (d.x0, d.x1, d.h);
         let mut hit = self.triggered(x0, x1, s1);
         for (h, m) in hit.iter_mut().zip(self.muted) {
             *h &= !m;
@@ -836,10 +836,10 @@ impl BldcPlant {
                 if done {
                     h
                 } else {
-                    self.locate(x0, d.f0, h_full, p)
+                    self.locate(x0, *d.f0, h_full, p)
                 }
             } else {
-                self.locate(x0, d.f0, bracket[k], p)
+                self.locate(x0, *d.f0, bracket[k], p)
             };
             if first.is_none_or(|(h0, _, _)| h < h0) {
                 first = Some((h, p, at));
@@ -1054,7 +1054,7 @@ impl BldcPlant {
     fn state(&self) -> State {
         match &self.lookahead {
             Some(la) => {
-                let mut x = self.integrate_from(&la.x0, self.t - la.t0, la.base, la.f0);
+                let mut x = self.integrate_from(&la.x0, self.t - la.t0, la.base, &la.f0);
                 if !(0.0..TAU).contains(&x[THETA]) {
                     x[THETA] = x[THETA].rem_euclid(TAU);
                 }
@@ -1205,20 +1205,20 @@ impl BldcPlant {
                 }
             };
             let f0 = k1;
-            let mut x1 = self.integrate_from(&x0, t1 - t0, b0, k1);
+            let mut x1 = self.integrate_from(&x0, t1 - t0, b0, &k1);
             let (mut f1, mut s1) = self.deriv_and_solution(&x1, b0);
             let mut event = None;
             let step = Dense {
-                x0,
-                f0,
-                x1,
-                f1,
+                x0: &x0,
+                f0: &f0,
+                x1: &x1,
+                f1: &f1,
                 h: t1 - t0,
             };
             if let Some((h, p, at)) = self.first_event(&step, &s1, b0) {
                 // The step to the event is integrated (not interpolated), so the energy
                 // integrals stay consistent with the currents.
-                x1 = at.unwrap_or_else(|| self.integrate_from(&x0, h, b0, f0));
+                x1 = at.unwrap_or_else(|| self.integrate_from(&x0, h, b0, &f0));
                 (f1, s1) = self.deriv_and_solution(&x1, b0);
                 t1 = t0 + h;
                 event = Some(p);
@@ -1289,7 +1289,7 @@ mod tests {
         let mut x = *x;
         for _ in 0..n {
             let b = BldcPlant::base(&x);
-            x = pl.rk4_from(&x, h / n as f64, b, pl.deriv(&dynamic(&x), b));
+            x = pl.rk4_from(&x, h / n as f64, b, &pl.deriv(&dynamic(&x), b));
         }
         x
     }
@@ -1371,7 +1371,7 @@ mod tests {
                     let x0 = pl.x;
                     let b = BldcPlant::base(&x0);
                     let k1 = pl.deriv(&dynamic(&x0), b);
-                    let got = pl.flow_from(&md, &x0, h, b, k1);
+                    let got = pl.flow_from(&md, &x0, h, b, &k1);
                     let want = fine(&pl, &x0, h, 2000);
                     let (di, dw) = (err(&got, &want), (got[OMEGA] - want[OMEGA]).abs());
                     let (bi, bw) = if lock { (1e-13, 0.0) } else { (1e-7, 2e-7) };
@@ -1379,7 +1379,7 @@ mod tests {
                     if !lock {
                         // Fourth order: half the step, a sixteenth of the error (third
                         // order, as without the torque's rate of change, an eighth).
-                        let half = pl.flow_from(&md, &x0, h / 2.0, b, k1);
+                        let half = pl.flow_from(&md, &x0, h / 2.0, b, &k1);
                         let e2 = err(&half, &fine(&pl, &x0, h / 2.0, 2000));
                         assert!(e2 < di / 12.0, "{case}: {di:e} A, then {e2:e} A at h/2");
                     }

@@ -779,7 +779,9 @@ impl Front {
                 self.walk(c, k, seg_end, noise);
                 span = 1; // the next segment is likely busy too
             } else {
-                span = 2;
+                // Quiet here: the rest of the step likely is too. Restarting at 8 segments
+                // rather than 2 costs fewer bounds (measured); the ticks walked are the same.
+                span = 8;
             }
             k = seg_end + 1;
         }
