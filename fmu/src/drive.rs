@@ -1,10 +1,12 @@
 //! The running drive inside an instance: the engine, the inputs applied to it, and the
-//! record of every input change and communication point that makes it replayable.
+//! record of every input change and communication point that makes it replayable. The
+//! record is run-length encoded: a master stepping at a fixed size adds nothing to it.
 
 use crate::variables::{Input, Output, Role, Text, table};
 use bldc_drive::DriveConfig;
 use bldc_drive::drive::{DriveEngine, build, build_plugin};
 use bldc_drive::drive_core::{EngineError, ParamError, StopReason, Ticks};
+use bldc_drive::plants::Load;
 use bldc_drive::strategies::Mode;
 use bldc_drive::strategies::PluginLibrary;
 use bldc_drive::strategies::params::SPEED_CMD_MAX_RPM;
@@ -15,10 +17,87 @@ use std::path::{Path, PathBuf};
 /// built from the same values reproduces it bit for bit (the simulation is deterministic).
 #[derive(Copy, Clone, Debug, PartialEq)]
 pub enum Event {
-    /// Ran the engine to this master tick (a communication point).
-    RunTo(u64),
+    /// Ran the engine to master ticks `first`, `first + stride`, … (`count` >= 1
+    /// communication points, evenly spaced).
+    Run {
+        /// The first communication point \[ticks\].
+        first: u64,
+        /// The spacing \[ticks\] (0 while `count` is 1).
+        stride: u64,
+        /// How many.
+        count: u64,
+    },
     /// Input variable `vr` changed to this value.
     Set(u32, f64),
+}
+
+impl Event {
+    /// The last communication point of a run.
+    pub fn last_tick(&self) -> Option<u64> {
+        match *self {
+            Event::Run {
+                first,
+                stride,
+                count,
+            } => stride
+                .checked_mul(count.checked_sub(1)?)
+                .and_then(|d| first.checked_add(d)),
+            Event::Set(..) => None,
+        }
+    }
+}
+
+/// Checks a record before any of it is replayed: runs well formed, communication points
+/// never going back, the last one at `now`, every input change a valid value of an input.
+/// The replay then does only the work the record describes, up to tick `now`.
+pub fn check_record(events: &[Event], now: u64) -> Result<(), String> {
+    let mut at = 0u64;
+    for e in events {
+        match *e {
+            Event::Run {
+                first,
+                stride,
+                count,
+            } => {
+                let last = e
+                    .last_tick()
+                    .filter(|_| count > 0 && (count > 1 || stride == 0));
+                let Some(last) = last.filter(|&l| first >= at && l <= now) else {
+                    return Err(format!(
+                        "recorded run {first} + k·{stride}, k < {count} (rule: count >= 1, ticks never going back and ending by tick {now})"
+                    ));
+                };
+                at = last;
+            }
+            Event::Set(vr, x) => match table().get(vr as usize).map(|v| (v, v.role)) {
+                Some((v, Role::Input(i))) => check_input(v.name, i, x)?,
+                _ => return Err(format!("recorded input {vr} is not an input")),
+            },
+        }
+    }
+    if at != now {
+        return Err(format!(
+            "the record ends at tick {at}, the engine at {now} (rule: they agree)"
+        ));
+    }
+    Ok(())
+}
+
+/// The rule of an input's value, as `fmi2Set*` checks it before applying anything.
+pub fn check_input(name: &str, input: Input, x: f64) -> Result<(), String> {
+    if !x.is_finite() {
+        return Err(format!("`{name}` = {x} (rule: must be finite)"));
+    }
+    if input == Input::LoadTorque {
+        // The library's rule for an active load torque (plants::Load::validate).
+        Load {
+            active_nm: x,
+            ..Load::default()
+        }
+        .validate()
+        .map_err(|e| format!("`{name}` = {x} (rule: {})", e.rule))?;
+    }
+    Ok(())
 }
 
 /// Engine + applied inputs + history.
@@ -189,7 +268,7 @@ impl Drive {
     }
 
     /// Applies input `vr` = `x` if it changed, and records it.
-    pub fn set_input(&mut self, vr: u32, input: Input, x: f64) {
+    pub(crate) fn set_input(&mut self, vr: u32, input: Input, x: f64) {
         if self.apply(input, x) {
             self.events.push(Event::Set(vr, x));
         }
@@ -229,7 +308,63 @@ impl Drive {
 
     /// Runs the engine to master tick `end` and records the communication point.
     pub fn run_to(&mut self, end: Ticks) -> Result<(), EngineError> {
-        self.events.push(Event::RunTo(end.0));
+        self.record_run(end.0);
+        let r = self.advance(end);
+        if r.is_err() {
+            // The engine stopped short: record where, so a state taken now replays to the
+            // same failure (see `replay`).
+            self.unrecord_run();
+            self.record_run(self.engine.now().0);
+        }
+        r
+    }
+
+    /// Takes the last communication point back out of the record.
+    fn unrecord_run(&mut self) {
+        match self.events.last_mut() {
+            Some(Event::Run { stride, count, .. }) if *count > 1 => {
+                *count -= 1;
+                if *count == 1 {
+                    *stride = 0;
+                }
+            }
+            Some(Event::Run { .. }) => {
+                self.events.pop();
+            }
+            _ => {}
+        }
+    }
+
+    /// Adds a communication point to the record, extending the last run when it can.
+    fn record_run(&mut self, end: u64) {
+        if let Some(Event::Run {
+            first,
+            stride,
+            count,
+        }) = self.events.last_mut()
+        {
+            if *count == 1 && end >= *first {
+                *stride = end - *first;
+                *count = 2;
+                return;
+            }
+            let next = stride
+                .checked_mul(*count)
+                .and_then(|d| first.checked_add(d));
+            if next == Some(end) {
+                *count += 1;
+                return;
+            }
+        }
+        self.events.push(Event::Run {
+            first: end,
+            stride: 0,
+            count: 1,
+        });
+    }
+
+    /// Runs the engine to `end` without recording it.
+    fn advance(&mut self, end: Ticks) -> Result<(), EngineError> {
         let sync = &mut self.sync;
         self.engine.run_until(end, |e, reason| {
             if !matches!(reason, StopReason::Diode | StopReason::Sensing) {
@@ -240,18 +375,56 @@ impl Drive {
         Ok(())
     }
 
-    /// Replays one recorded event.
-    pub fn replay(&mut self, e: Event) -> Result<(), String> {
-        match e {
-            Event::RunTo(t) => self.run_to(Ticks(t)).map_err(|e| e.to_string()),
-            Event::Set(vr, x) => match table().get(vr as usize).map(|v| v.role) {
-                Some(Role::Input(i)) => {
-                    self.set_input(vr, i, x);
-                    Ok(())
+    /// Replays a record checked by [`check_record`] on a drive just built, and keeps it as
+    /// this drive's record. With `failed` (a state taken after the engine stopped with an
+    /// error), the last run must end in that error again.
+    pub fn replay(&mut self, events: Vec<Event>, failed: bool) -> Result<(), String> {
+        let last = events.len().saturating_sub(1);
+        for (i, e) in events.iter().enumerate() {
+            match *e {
+                Event::Run {
+                    first,
+                    stride,
+                    count,
+                } => {
+                    // Running again to the tick already reached does nothing, so a run of
+                    // zero stride is one call however long it is.
+                    let n = if stride == 0 { 1 } else { count };
+                    for k in 0..n {
+                        let t = Ticks(first + k * stride); // checked: <= now
+                        match self.advance(t) {
+                            Err(_) if failed && i == last && k + 1 == n => {}
+                            r => r.map_err(|e| e.to_string())?,
+                        }
+                    }
                 }
-                _ => Err(format!("recorded input {vr} is not an input")),
-            },
+                Event::Set(vr, x) => {
+                    if let Some(Role::Input(i)) = table().get(vr as usize).map(|v| v.role) {
+                        self.apply(i, x);
+                    }
+                }
+            }
         }
+        self.events = events;
+        Ok(())
+    }
+
+    /// The first output that is not finite, if any: the model has left its valid range.
+    pub fn non_finite_output(&self) -> Option<(&'static str, f64)> {
+        let all: Vec<(&'static str, Output)> = table()
+            .iter()
+            .filter_map(|v| match v.role {
+                Role::Output(o) => Some((v.name, o)),
+                _ => None,
+            })
+            .collect();
+        let kinds: Vec<Output> = all.iter().map(|&(_, o)| o).collect();
+        let mut vals = vec![0.0; kinds.len()];
+        self.outputs(&kinds, &mut vals);
+        all.iter()
+            .zip(vals)
+            .find(|(_, x)| !x.is_finite())
+            .map(|(&(n, _), x)| (n, x))
     }
 
     /// An independent copy in the same state (bit-identical continuation).

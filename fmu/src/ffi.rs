@@ -3,11 +3,12 @@
 //! or foreign pointers.
 
 use crate::model::{Fault, Model};
-use std::collections::BTreeSet;
+use std::cell::{Cell, RefCell};
+use std::collections::BTreeMap;
 use std::ffi::{CStr, CString, c_char, c_int, c_void};
-use std::panic::{AssertUnwindSafe, catch_unwind};
+use std::panic::{self, AssertUnwindSafe, catch_unwind};
 use std::path::PathBuf;
-use std::sync::Mutex;
+use std::sync::{Mutex, Once};
 
 /// `fmi2Status`.
 pub type Status = c_int;
@@ -158,9 +159,11 @@ pub(crate) fn log_raw(
     }
 }
 
-/// Addresses of live instances and live FMU states: a pointer not in here is refused
-/// instead of dereferenced. This is the only process-wide data; it holds no model state.
-static LIVE: Mutex<BTreeSet<(u8, usize)>> = Mutex::new(BTreeSet::new());
+/// Addresses of live instances and live FMU states, each state with the instance that made
+/// it: a pointer not in here is refused instead of dereferenced, and freeing an instance
+/// frees the states it still owns. This is the only process-wide data; it holds no model
+/// state.
+static LIVE: Mutex<BTreeMap<(u8, usize), usize>> = Mutex::new(BTreeMap::new());
 
 /// Kind of a registered pointer.
 #[derive(Copy, Clone)]
@@ -171,32 +174,126 @@ pub enum Handle {
     State = 1,
 }
 
-fn live() -> std::sync::MutexGuard<'static, BTreeSet<(u8, usize)>> {
+fn live() -> std::sync::MutexGuard<'static, BTreeMap<(u8, usize), usize>> {
     LIVE.lock().unwrap_or_else(|p| p.into_inner())
 }
 
-/// Records `p` as live.
-pub fn register(kind: Handle, p: *mut c_void) {
-    live().insert((kind as u8, p as usize));
+/// Records `p` as live, owned by instance `owner` (NULL for an instance).
+pub fn register(kind: Handle, p: *mut c_void, owner: *mut c_void) {
+    live().insert((kind as u8, p as usize), owner as usize);
 }
 
 /// Forgets `p`; false if it was not live.
 pub fn unregister(kind: Handle, p: *mut c_void) -> bool {
-    live().remove(&(kind as u8, p as usize))
+    live().remove(&(kind as u8, p as usize)).is_some()
 }
 
 /// Whether `p` is live.
 pub fn is_live(kind: Handle, p: *mut c_void) -> bool {
-    !p.is_null() && live().contains(&(kind as u8, p as usize))
+    !p.is_null() && live().contains_key(&(kind as u8, p as usize))
 }
 
-/// Runs `body` with no panic escaping: a panic becomes `on_panic`.
+/// Whether `p` is a live state made by instance `owner`.
+pub fn is_state_of(p: *mut c_void, owner: *mut c_void) -> bool {
+    !p.is_null() && live().get(&(Handle::State as u8, p as usize)) == Some(&(owner as usize))
+}
+
+/// Unregisters and returns every state `owner` made and nobody freed.
+pub fn take_states_of(owner: *mut c_void) -> Vec<*mut c_void> {
+    let mut live = live();
+    let mine: Vec<(u8, usize)> = live
+        .iter()
+        .filter(|&(&(k, _), &o)| k == Handle::State as u8 && o == owner as usize)
+        .map(|(&key, _)| key)
+        .collect();
+    mine.iter()
+        .map(|key| {
+            live.remove(key);
+            key.1 as *mut c_void
+        })
+        .collect()
+}
+
+/// Panics caught inside FMU calls so far, in this process (for tests and fuzzing: each is
+/// a bug, even though the importer only sees `fmi2Error`).
+pub fn caught_panics() -> usize {
+    CAUGHT.load(std::sync::atomic::Ordering::Relaxed)
+}
+
+static CAUGHT: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+
+/// How many FMU states are live, over all instances (for leak tests).
+pub fn live_states() -> usize {
+    live()
+        .keys()
+        .filter(|(k, _)| *k == Handle::State as u8)
+        .count()
+}
+
+thread_local! {
+    /// Depth of FMU calls on this thread: a panic inside one is not printed.
+    static IN_CALL: Cell<u32> = const { Cell::new(0) };
+    /// The message and place of the last panic inside an FMU call, for the logger.
+    static LAST_PANIC: RefCell<Option<String>> = const { RefCell::new(None) };
+}
+
+/// Installs, once, a panic hook that keeps panics inside FMU calls off stderr (they reach
+/// the master's logger instead) and hands every other panic to the hook it replaced. The
+/// hook is process-wide, but in the packaged FMU that is the cdylib's own copy of std, so
+/// an importer's panics (a Rust importer has its own std) are not affected.
+fn install_quiet_hook() {
+    static ONCE: Once = Once::new();
+    ONCE.call_once(|| {
+        let previous = panic::take_hook();
+        panic::set_hook(Box::new(move |info| {
+            if IN_CALL.with(Cell::get) > 0 {
+                let at = info
+                    .location()
+                    .map(|l| format!(" at {}:{}", l.file(), l.line()))
+                    .unwrap_or_default();
+                let text = format!("{}{at}", payload_text(info.payload()));
+                LAST_PANIC.with(|p| *p.borrow_mut() = Some(text));
+            } else {
+                previous(info);
+            }
+        }));
+    });
+}
+
+fn payload_text(payload: &(dyn std::any::Any + Send)) -> String {
+    payload
+        .downcast_ref::<&str>()
+        .map(|s| s.to_string())
+        .or_else(|| payload.downcast_ref::<String>().cloned())
+        .unwrap_or_default()
+}
+
+/// Leaves an FMU call even when it unwinds.
+struct InCall;
+
+impl InCall {
+    fn enter() -> InCall {
+        IN_CALL.with(|c| c.set(c.get() + 1));
+        InCall
+    }
+}
+
+impl Drop for InCall {
+    fn drop(&mut self) {
+        IN_CALL.with(|c| c.set(c.get().saturating_sub(1)));
+    }
+}
+
+/// Runs `body` with no panic escaping and none printed: a panic becomes `on_panic`.
 pub fn guarded<T>(on_panic: T, body: impl FnOnce() -> T) -> T {
+    install_quiet_hook();
+    let _in = InCall::enter();
     catch_unwind(AssertUnwindSafe(body)).unwrap_or(on_panic)
 }
 
 /// Runs `body` on the instance behind `c`: refuses a stale or foreign pointer, and turns a
-/// panic into `fmi2Error` with the instance put in the error phase.
+/// panic into `fmi2Error` with the instance put in the error phase and the panic's message
+/// sent to the logger.
 pub fn with_instance(
     c: *mut c_void,
     call: &str,
@@ -206,17 +303,18 @@ pub fn with_instance(
         return ERROR; // nothing to log with: the logger lives in the instance
     }
     let p = c.cast::<Instance>();
+    install_quiet_hook();
+    let _in = InCall::enter();
     let r = catch_unwind(AssertUnwindSafe(|| {
         // SAFETY: `c` is live, so it is a `Box<Instance>` from fmi2Instantiate not yet freed;
         // FMI forbids concurrent calls on one instance, so this is the only reference.
         body(unsafe { &mut *p })
     }));
     r.unwrap_or_else(|payload| {
-        let what = payload
-            .downcast_ref::<&str>()
-            .map(|s| s.to_string())
-            .or_else(|| payload.downcast_ref::<String>().cloned())
-            .unwrap_or_default();
+        CAUGHT.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        let what = LAST_PANIC
+            .with(|l| l.borrow_mut().take())
+            .unwrap_or_else(|| payload_text(payload.as_ref()));
         guarded(FATAL, || {
             // SAFETY: as above; the panicking borrow has ended.
             let inst = unsafe { &mut *p };

@@ -2,7 +2,7 @@
 //! access by value reference, and the communication steps on an exact tick clock. No C
 //! types here, so all of it is unit-tested without loading the library.
 
-use crate::drive::{Drive, clamp_speed};
+use crate::drive::{Drive, check_input, clamp_speed};
 use crate::variables::{Input, Kind, Output, Role, by_vr, table};
 use bldc_drive::drive_core::{TICK_S, Ticks};
 use std::path::PathBuf;
@@ -228,9 +228,19 @@ impl Model {
         Ok(())
     }
 
-    /// `fmi2Set*` of one variable. Parameters only before initialization ends; inputs at
-    /// any time before termination (they act from the next step on).
+    /// `fmi2Set*` of one variable: [`Model::check_set`], then [`Model::apply_set`].
     pub fn set(&mut self, access: Access, vr: u32, x: f64) -> Result<(), Fault> {
+        let warning = self.check_set(access, vr, x)?;
+        self.apply_set(vr, x);
+        warning.map_or(Ok(()), |w| Err(Fault::Warning(w)))
+    }
+
+    /// Whether `vr` = `x` may be set now, changing nothing: `Err` names the variable and
+    /// the rule; `Ok(Some(w))` will be applied with warning `w`. Parameters only before
+    /// initialization ends, each within its declared range and its own rule (rules that
+    /// tie parameters together are checked when the drive is built); inputs at any time
+    /// before termination (they act from the next step on).
+    pub fn check_set(&self, access: Access, vr: u32, x: f64) -> Result<Option<String>, Fault> {
         let v = checked(access, vr)?;
         if !x.is_finite() {
             return err(format!("`{}` = {x} (rule: must be finite)", v.name));
@@ -247,10 +257,20 @@ impl Model {
                 "`{}` is a fixed parameter: it can only be set before fmi2ExitInitializationMode (phase is {:?})",
                 v.name, self.phase
             )),
-            Role::Parameter { .. } => {
-                self.values[vr as usize] = x;
-                self.drive = None;
-                Ok(())
+            Role::Parameter { set, .. } => {
+                if v.min.is_some_and(|m| x < m) || v.max.is_some_and(|m| x > m) {
+                    let (lo, hi) = (
+                        v.min.unwrap_or(f64::NEG_INFINITY),
+                        v.max.unwrap_or(f64::INFINITY),
+                    );
+                    return err(format!(
+                        "`{}` = {x} (rule: within its declared range {lo}..={hi})",
+                        v.name
+                    ));
+                }
+                let mut scratch = bldc_drive::DriveConfig::default();
+                set(&mut scratch, x).map_err(|e| Fault::Error(e.to_string()))?;
+                Ok(None)
             }
             Role::Input(input) => {
                 if !(before_init || self.phase == Phase::StepComplete) {
@@ -259,19 +279,25 @@ impl Model {
                         v.name, self.phase
                     ));
                 }
-                self.values[vr as usize] = x;
-                match self.drive.as_mut() {
-                    Some(d) if !before_init => d.set_input(vr, input, x),
-                    _ => self.drive = None,
-                }
-                if input == Input::SpeedRef && clamp_speed(x) != x {
-                    return Err(Fault::Warning(format!(
+                check_input(v.name, input, x).map_err(Fault::Error)?;
+                Ok((input == Input::SpeedRef && clamp_speed(x) != x).then(|| {
+                    format!(
                         "`speed_ref_rpm` = {x} is outside 0..=16383 rpm (the 14-bit speed register); clamped to {}",
                         clamp_speed(x)
-                    )));
-                }
-                Ok(())
+                    )
+                }))
             }
+        }
+    }
+
+    /// Applies a value [`Model::check_set`] accepted.
+    pub fn apply_set(&mut self, vr: u32, x: f64) {
+        let Some(v) = by_vr(vr) else { return };
+        let before_init = matches!(self.phase, Phase::Instantiated | Phase::InitializationMode);
+        self.values[vr as usize] = x;
+        match (v.role, self.drive.as_mut()) {
+            (Role::Input(input), Some(d)) if !before_init => d.set_input(vr, input, x),
+            _ => self.drive = None,
         }
     }
 
@@ -298,6 +324,14 @@ impl Model {
     /// ends. The text is copied; whether it names a usable plugin is checked when the
     /// drive is built.
     pub fn set_text(&mut self, vr: u32, x: &str) -> Result<(), Fault> {
+        self.check_text(vr)?;
+        self.texts[vr as usize] = x.to_string();
+        self.drive = None;
+        Ok(())
+    }
+
+    /// Whether String variable `vr` may be set now, changing nothing.
+    pub fn check_text(&self, vr: u32) -> Result<(), Fault> {
         let v = checked(Access::String, vr)?;
         if !matches!(self.phase, Phase::Instantiated | Phase::InitializationMode) {
             return err(format!(
@@ -305,8 +339,6 @@ impl Model {
                 v.name, self.phase
             ));
         }
-        self.texts[vr as usize] = x.to_string();
-        self.drive = None;
         Ok(())
     }
 
@@ -350,6 +382,14 @@ impl Model {
         if let Err(e) = d.run_to(target) {
             self.fail();
             return err(format!("the drive stopped: {e}"));
+        }
+        if let Some((name, x)) = d.non_finite_output() {
+            // The engine did reach `end`: the clock follows it, so a state taken now agrees.
+            self.time = end;
+            self.fail();
+            return err(format!(
+                "at t = {end} s output `{name}` = {x} (rule: every output finite; the parameters or inputs drove the model out of its valid range); the instance is now in the error state"
+            ));
         }
         self.time = end;
         Ok(())
@@ -466,27 +506,83 @@ mod tests {
     }
 
     #[test]
-    fn parameters_are_fixed_after_initialization_and_checked_at_its_end() {
+    fn parameters_are_checked_when_set_fixed_after_initialization_and_tied_at_its_end() {
         let mut m = Model::new();
         m.enter_initialization().unwrap();
-        m.set(Access::Real, vr("motor.resistance_ohm"), -1.0)
+        let r = vr("motor.resistance_ohm");
+        let before = m.values[r as usize];
+        let Err(Fault::Error(msg)) = m.set(Access::Real, r, -1.0) else {
+            panic!("a resistance below its range was accepted")
+        };
+        assert!(
+            msg.contains("motor.resistance_ohm") && msg.contains("-1") && msg.contains("rule"),
+            "{msg}"
+        );
+        assert_eq!(m.values[r as usize], before, "nothing applied");
+        // Within its own range, but not below the self inductance: the tie is checked
+        // when the drive is built.
+        m.set(Access::Real, vr("motor.mutual_inductance_h"), 0.9)
             .unwrap();
         let Err(Fault::Error(msg)) = m.exit_initialization() else {
             panic!()
         };
-        assert!(
-            msg.contains("motor.resistance_ohm") && msg.contains("-1"),
-            "{msg}"
-        );
+        assert!(msg.contains("inductance"), "{msg}");
         assert_eq!(m.phase, Phase::InitializationMode);
-        m.set(Access::Real, vr("motor.resistance_ohm"), 2.0)
+        m.set(Access::Real, vr("motor.mutual_inductance_h"), 0.0)
+            .unwrap();
+        m.set(Access::Real, r, 2.0).unwrap();
+        m.exit_initialization().unwrap();
+        assert!(m.set(Access::Real, r, 3.0).is_err());
+        assert_eq!(m.values[r as usize], 2.0);
+    }
+
+    #[test]
+    fn the_load_torque_follows_the_librarys_rule() {
+        let mut m = initialized();
+        let load = vr("load_torque_nm");
+        for x in [1.0 + 1e-9, -1.5, 1e300, -1e300, f64::INFINITY] {
+            let Err(Fault::Error(msg)) = m.set(Access::Real, load, x) else {
+                panic!("load {x} accepted")
+            };
+            assert!(
+                msg.contains("load_torque_nm") && msg.contains("rule"),
+                "{msg}"
+            );
+            assert_eq!(m.values[load as usize], 0.0);
+        }
+        m.set(Access::Real, load, -1.0).unwrap();
+        m.set(Access::Real, load, 1.0).unwrap();
+        let v = by_vr(load).unwrap();
+        assert_eq!((v.min, v.max), (Some(-1.0), Some(1.0)), "declared range");
+    }
+
+    #[test]
+    fn a_model_driven_out_of_range_ends_the_step_with_an_error_not_nan() {
+        // A flux linkage at its declared maximum: accepted, but the plant's speed goes NaN
+        // within a few steps.
+        let mut m = Model::new();
+        m.enter_initialization().unwrap();
+        m.set(Access::Real, vr("motor.flux_linkage_wb"), 1.0)
             .unwrap();
         m.exit_initialization().unwrap();
-        assert!(
-            m.set(Access::Real, vr("motor.resistance_ohm"), 3.0)
-                .is_err()
-        );
-        assert_eq!(m.values[vr("motor.resistance_ohm") as usize], 2.0);
+        let mut k = 0;
+        let msg = loop {
+            match m.do_step(f64::from(k) * 1e-3, 1e-3) {
+                Ok(()) => {
+                    for name in ["speed_rpm", "i_u", "torque_nm", "theta_e_deg"] {
+                        let x = get1(&mut m, name);
+                        assert!(x.is_finite(), "{name} = {x} after an OK step {k}");
+                    }
+                }
+                Err(Fault::Error(msg)) => break msg,
+                Err(w) => panic!("{w:?}"),
+            }
+            k += 1;
+            assert!(k < 300, "the model stayed finite: pick another case");
+        };
+        assert!(msg.contains("speed_rpm") && msg.contains("rule"), "{msg}");
+        assert_eq!(m.phase, Phase::Error);
+        assert!(m.do_step(m.time, 1e-3).is_err(), "no step after it");
     }
 
     #[test]

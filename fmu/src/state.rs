@@ -1,15 +1,32 @@
 //! Serialized FMU states: the variable values (numbers and strings) the drive was built
-//! from, every input change and communication point since, and the phase and clocks. Deserializing rebuilds the
-//! drive and replays the record, which reproduces it bit for bit because the simulation is
-//! deterministic; the cost is the simulated time since initialization.
+//! from, every input change and communication point since (run-length encoded), and the
+//! phase and clocks. Deserializing rebuilds the drive and replays the record, which
+//! reproduces it bit for bit because the simulation is deterministic; the cost is the
+//! simulated time since initialization.
+//!
+//! Layout: magic (format version) | payload length (u64) | FNV-1a 64 of the payload (u64) |
+//! payload. Damaged bytes are refused by the length and the hash before anything in the
+//! payload is believed, so no replay starts from them. The hash finds damage, it is not a
+//! signature: bytes made on purpose with a matching hash are only checked for consistency.
 
-use crate::drive::{Drive, Event};
+use crate::drive::{Drive, Event, check_record};
 use crate::model::{Model, Phase};
 use crate::xml::guid;
 use std::path::Path;
 
 // 2: String values (strategy.plugin) follow the numbers.
-const MAGIC: &[u8; 8] = b"BLDCFMU2";
+// 3: length and hash header; communication points run-length encoded.
+const MAGIC: &[u8; 8] = b"BLDCFMU3";
+const HEADER: usize = 8 + 8 + 8;
+
+/// FNV-1a, 64 bit (offset basis 0xcbf29ce484222325, prime 0x100000001b3). Each byte
+/// step is a bijection of the hash, so any change confined to one byte always changes the
+/// result; other damage goes unseen with probability about 2^-64.
+pub fn fnv1a64(bytes: &[u8]) -> u64 {
+    bytes.iter().fold(0xcbf2_9ce4_8422_2325, |h, &b| {
+        (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3)
+    })
+}
 
 /// An FMU state as handed to the master (`fmi2FMUstate` points to one).
 pub struct Snapshot {
@@ -19,8 +36,17 @@ pub struct Snapshot {
 
 /// The bytes of a state.
 pub fn serialize(m: &Model) -> Vec<u8> {
-    let mut w = Vec::new();
+    let p = payload(m);
+    let mut w = Vec::with_capacity(HEADER + p.len());
     w.extend_from_slice(MAGIC);
+    put_u64(&mut w, p.len() as u64);
+    put_u64(&mut w, fnv1a64(&p));
+    w.extend_from_slice(&p);
+    w
+}
+
+fn payload(m: &Model) -> Vec<u8> {
+    let mut w = Vec::new();
     put_bytes(&mut w, guid().as_bytes());
     w.push(phase_code(m.phase));
     put_f64(&mut w, m.start_time);
@@ -37,9 +63,15 @@ pub fn serialize(m: &Model) -> Vec<u8> {
             put_u64(&mut w, d.events.len() as u64);
             for e in &d.events {
                 match *e {
-                    Event::RunTo(t) => {
+                    Event::Run {
+                        first,
+                        stride,
+                        count,
+                    } => {
                         w.push(0);
-                        put_u64(&mut w, t);
+                        put_u64(&mut w, first);
+                        put_u64(&mut w, stride);
+                        put_u64(&mut w, count);
                     }
                     Event::Set(vr, x) => {
                         w.push(1);
@@ -58,12 +90,31 @@ pub fn serialize(m: &Model) -> Vec<u8> {
 /// again, a relative path inside `resources` (the deserializing instance's folder).
 pub fn deserialize(bytes: &[u8], resources: Option<&Path>) -> Result<Model, String> {
     let mut r = Reader { b: bytes };
-    let magic = r.take(8)?;
+    let magic = r.take(8).map_err(|_| {
+        format!(
+            "{} bytes (rule: at least the {HEADER}-byte header)",
+            bytes.len()
+        )
+    })?;
     if magic != MAGIC {
         return Err(format!(
             "bad magic {:?} (rule: a state serialized by this FMU version starts with {:?})",
             String::from_utf8_lossy(magic),
             String::from_utf8_lossy(MAGIC)
+        ));
+    }
+    let len = r.u64().map_err(|_| "truncated header".to_string())?;
+    let sum = r.u64().map_err(|_| "truncated header".to_string())?;
+    if len != r.b.len() as u64 {
+        return Err(format!(
+            "payload length {len} in the header, {} bytes given (rule: they agree)",
+            r.b.len()
+        ));
+    }
+    if fnv1a64(r.b) != sum {
+        return Err(format!(
+            "checksum mismatch: header {sum:#018x}, payload {:#018x} (rule: the FNV-1a 64 of the payload; the state is damaged)",
+            fnv1a64(r.b)
         ));
     }
     let g = r.bytes()?;
@@ -92,20 +143,31 @@ pub fn deserialize(bytes: &[u8], resources: Option<&Path>) -> Result<Model, Stri
             if built_from.len() != n || built_texts.len() != n {
                 return Err("state has the wrong number of variables".into());
             }
-            let mut d = Drive::new(&built_from, &built_texts, resources)?;
-            let n = r.u64()?;
+            // Each event takes at least 13 bytes: the count cannot outgrow the input.
+            let n = r.len(13)?;
+            let mut events = Vec::with_capacity(n);
             for _ in 0..n {
-                let e = match r.u8()? {
-                    0 => Event::RunTo(r.u64()?),
+                events.push(match r.u8()? {
+                    0 => Event::Run {
+                        first: r.u64()?,
+                        stride: r.u64()?,
+                        count: r.u64()?,
+                    },
                     1 => {
                         let vr = u32::try_from(r.u64()?).map_err(|e| e.to_string())?;
                         Event::Set(vr, r.f64()?)
                     }
                     t => return Err(format!("unknown event tag {t}")),
-                };
-                d.replay(e)?;
+                });
             }
             let now = r.u64()?;
+            check_record(&events, now)?;
+            // After a failed step the engine stopped somewhere past the last good point.
+            if phase != Phase::Error {
+                check_clock(start_time, time, now)?;
+            }
+            let mut d = Drive::new(&built_from, &built_texts, resources)?;
+            d.replay(events, phase == Phase::Error)?;
             if d.engine.now().0 != now {
                 return Err(format!(
                     "replay ended at tick {} instead of {now}",
@@ -129,6 +191,20 @@ pub fn deserialize(bytes: &[u8], resources: Option<&Path>) -> Result<Model, Stri
         time,
         drive,
     })
+}
+
+/// The master's time and the engine's clock must describe the same instant (the engine
+/// rounds to whole ticks).
+fn check_clock(start: f64, time: f64, now: u64) -> Result<(), String> {
+    let engine = bldc_drive::drive_core::Ticks(now).seconds();
+    let tol = 0.5 * bldc_drive::drive_core::TICK_S + 1e-12 * time.abs().max(1.0);
+    if start.is_finite() && time.is_finite() && (time - start - engine).abs() <= tol {
+        Ok(())
+    } else {
+        Err(format!(
+            "time {time} s from start {start} s, but the engine is at {engine} s (rule: they agree within half a tick)"
+        ))
+    }
 }
 
 fn phase_code(p: Phase) -> u8 {
@@ -200,24 +276,25 @@ impl<'a> Reader<'a> {
     fn f64(&mut self) -> Result<f64, String> {
         Ok(f64::from_bits(self.u64()?))
     }
-    fn len(&mut self) -> Result<usize, String> {
+    /// A count of items of at least `each` bytes: it can never exceed the bytes left, which
+    /// bounds every allocation by the input's size.
+    fn len(&mut self, each: usize) -> Result<usize, String> {
         let n = self.u64()?;
-        // A length can never exceed the bytes left; this also bounds allocations.
         usize::try_from(n)
             .ok()
-            .filter(|&n| n <= self.b.len())
+            .filter(|&n| n.saturating_mul(each) <= self.b.len())
             .ok_or_else(|| "truncated state".to_string())
     }
     fn f64s(&mut self) -> Result<Vec<f64>, String> {
-        let n = self.len()?;
+        let n = self.len(8)?;
         (0..n).map(|_| self.f64()).collect()
     }
     fn bytes(&mut self) -> Result<&'a [u8], String> {
-        let n = self.len()?;
+        let n = self.len(1)?;
         self.take(n)
     }
     fn texts(&mut self) -> Result<Vec<String>, String> {
-        let n = self.len()?;
+        let n = self.len(8)?;
         (0..n)
             .map(|_| {
                 let b = self.bytes()?;
@@ -287,14 +364,156 @@ mod tests {
         assert!(deserialize(&bytes, None).is_ok());
         assert!(deserialize(&bytes[..bytes.len() - 1], None).is_err());
         assert!(deserialize(b"nonsense", None).is_err());
-        let mut other = bytes.clone();
-        other[20] ^= 1; // inside the GUID
-        assert!(deserialize(&other, None).is_err());
+        assert!(deserialize(b"", None).is_err());
         let mut old = bytes.clone();
-        old[7] = b'1'; // a state of the previous format, without String values
+        old[7] = b'2'; // a state of the previous format, without length and hash
         let Err(e) = deserialize(&old, None) else {
             panic!("an old-format state was accepted")
         };
-        assert!(e.contains("bad magic") && e.contains("BLDCFMU2"), "{e}");
+        assert!(e.contains("bad magic") && e.contains("BLDCFMU3"), "{e}");
+    }
+
+    /// The header's hash recomputed after the payload was edited, as bytes made on purpose
+    /// would be.
+    fn reseal(bytes: &mut [u8]) {
+        let sum = fnv1a64(&bytes[HEADER..]);
+        bytes[16..24].copy_from_slice(&sum.to_le_bytes());
+    }
+
+    fn running(to: f64) -> Model {
+        let mut m = Model::new();
+        m.enter_initialization().unwrap();
+        m.exit_initialization().unwrap();
+        run(&mut m, to, 1e-3);
+        m
+    }
+
+    #[test]
+    fn every_bit_flip_is_refused_by_the_header_before_any_replay() {
+        // A state 0.3 s into a run: replaying it takes far longer than checking a hash, so
+        // a thousand refusals in well under the time of a few replays show none started.
+        let m = running(0.3);
+        let bytes = serialize(&m);
+        let t = std::time::Instant::now();
+        deserialize(&bytes, None).unwrap();
+        let one_replay = t.elapsed();
+        let t = std::time::Instant::now();
+        let mut flips = 0u32;
+        for bit in (0..bytes.len() * 8).step_by(7) {
+            let mut b = bytes.clone();
+            b[bit / 8] ^= 1 << (bit % 8);
+            let Err(e) = deserialize(&b, None) else {
+                panic!("bit {bit} flipped was accepted")
+            };
+            assert!(
+                e.contains("checksum") || e.contains("magic") || e.contains("length"),
+                "bit {bit}: {e}"
+            );
+            flips += 1;
+        }
+        assert!(flips > 1000, "{flips}");
+        // Checking a hash over a few kilobytes against rebuilding and running the drive.
+        let each = t.elapsed() / flips;
+        assert!(
+            each * 20 < one_replay,
+            "a refusal took {each:?} on average, one replay {one_replay:?}"
+        );
+    }
+
+    #[test]
+    fn the_size_does_not_grow_with_the_steps_taken() {
+        let mut m = running(0.01);
+        let early = serialize(&m).len();
+        run(&mut m, 0.2, 1e-3);
+        assert_eq!(
+            serialize(&m).len(),
+            early,
+            "190 more steps of the same size"
+        );
+        // An input change and a different step size add one record each, not one per step.
+        m.set(Access::Real, vr_of("speed_ref_rpm").unwrap(), 2000.0)
+            .unwrap();
+        run(&mut m, 0.25, 0.5e-3);
+        let later = serialize(&m).len();
+        run(&mut m, 0.4, 0.5e-3);
+        assert_eq!(serialize(&m).len(), later);
+        assert!(later - early < 100, "{early} -> {later}");
+        let copy = deserialize(&serialize(&m), None).unwrap();
+        assert_eq!(serialize(&copy), serialize(&m));
+    }
+
+    #[test]
+    fn a_resealed_record_that_disagrees_with_itself_is_refused_before_replay() {
+        let m = running(0.05);
+        let bytes = serialize(&m);
+        let n = bytes.len();
+        // The payload ends with: the last run (first, stride, count) and the engine's tick.
+        let field = |k: usize| n - 8 * k..n - 8 * (k - 1);
+        let get = |k: usize| u64::from_le_bytes(bytes[field(k)].try_into().unwrap());
+        let edit = |k: usize, x: u64| {
+            let mut b = bytes.clone();
+            b[field(k)].copy_from_slice(&x.to_le_bytes());
+            reseal(&mut b);
+            b
+        };
+        let (stride, count, now) = (get(3), get(2), get(1));
+        assert!(
+            stride > 0 && count > 1 && now > 0,
+            "one run of {count} steps"
+        );
+        for (what, b) in [
+            ("a run past the engine's tick", edit(2, count + 1)),
+            ("a run of zero communication points", edit(2, 0)),
+            ("a run overflowing the tick counter", edit(3, u64::MAX)),
+            ("an engine tick beyond the record", edit(1, now + 1)),
+            ("an engine tick far from the record", edit(1, u64::MAX)),
+            ("a master time far from the engine's", {
+                // time: after the GUID, the phase byte, start and stop.
+                let at = HEADER + 8 + guid().len() + 1 + 16;
+                let mut b = bytes.clone();
+                b[at..at + 8].copy_from_slice(&1e6f64.to_bits().to_le_bytes());
+                reseal(&mut b);
+                b
+            }),
+        ] {
+            let t = std::time::Instant::now();
+            let Err(e) = deserialize(&b, None) else {
+                panic!("{what} was accepted")
+            };
+            assert!(e.contains("rule"), "{what}: {e}");
+            assert!(
+                t.elapsed().as_secs_f64() < 0.05,
+                "{what}: {:?}",
+                t.elapsed()
+            );
+        }
+    }
+
+    #[test]
+    fn a_long_run_of_zero_stride_replays_in_one_call() {
+        // Steps shorter than half a tick leave the engine where it is; however many are
+        // recorded, replaying them is one call.
+        let mut m = running(0.0);
+        let mut d = m.drive.take().unwrap();
+        d.events = vec![Event::Run {
+            first: 0,
+            stride: 0,
+            count: u64::MAX,
+        }];
+        d.replay(d.events.clone(), false).unwrap();
+        m.drive = Some(d);
+        let bytes = serialize(&m);
+        let t = std::time::Instant::now();
+        let copy = deserialize(&bytes, None).unwrap();
+        assert!(t.elapsed().as_secs_f64() < 0.05, "{:?}", t.elapsed());
+        assert_eq!(serialize(&copy), bytes);
+    }
+
+    #[test]
+    fn the_hash_is_fnv1a_64() {
+        // Published test vectors of FNV-1a 64.
+        assert_eq!(fnv1a64(b""), 0xcbf2_9ce4_8422_2325);
+        assert_eq!(fnv1a64(b"a"), 0xaf63_dc4c_8601_ec8c);
+        assert_eq!(fnv1a64(b"foobar"), 0x8594_4171_f739_67e8);
     }
 }

@@ -176,8 +176,13 @@ pub(crate) fn build_table() -> Vec<Variable> {
             ..var("speed_ref_rpm", Real, Role::Input(Input::SpeedRef), "rpm",
                 "Speed command ωc (14-bit register: clamped to 0..16383 with a warning)")
         },
-        var("load_torque_nm", Real, Role::Input(Input::LoadTorque), "N.m",
-            "Load torque on the shaft, opposing positive rotation"),
+        // The library's rule for an active load torque (plants::Load): |T_a| <= 1 N·m.
+        Variable {
+            min: Some(-1.0),
+            max: Some(1.0),
+            ..var("load_torque_nm", Real, Role::Input(Input::LoadTorque), "N.m",
+                "Load torque on the shaft, opposing positive rotation (|T| <= 1 N.m)")
+        },
         var("enable", Boolean, Role::Input(Input::Enable), "",
             "Drive enable: true holds the chip's start input (alignment, then closed loop after 31 master clocks); false drops start and holds reset (bridge off, restart count cleared)"),
         // Outputs.

@@ -219,21 +219,44 @@ def bad_calls(md, unzipdir):
     check(d.raw("fmi2ExitInitializationMode") == fmi2Error, "exitInitializationMode first: Error")
     log.take()
 
-    # Parameter outside its range: refused at exitInitializationMode, naming it.
+    # Parameter outside its declared range: refused when set, naming it and the rule.
     d.fmu.setupExperiment(startTime=0.0)
     d.fmu.enterInitializationMode()
-    check(d.set_real("motor.resistance_ohm", -2.0) == fmi2OK, "a parameter can be set in init mode")
-    check(d.raw("fmi2ExitInitializationMode") == fmi2Error, "negative resistance: Error at exit")
-    ok, e = errors_logged(log, "motor.resistance_ohm")
-    check(ok, f"  message names the parameter: {e}")
+    check(d.set_real("motor.resistance_ohm", -2.0) == fmi2Error, "negative resistance: Error when set")
+    ok, e = errors_logged(log, "`motor.resistance_ohm` = -2")
+    check(ok and any("rule" in m for _, _, m in e), f"  message names the parameter and rule: {e}")
     bad_int = one(ctypes.c_int, -3)
-    d.raw("fmi2SetInteger", one(uint, vr["motor.poles"]), 1, bad_int)
-    d.set_real("motor.resistance_ohm", 2.2)
-    check(d.raw("fmi2ExitInitializationMode") == fmi2Error, "negative pole count: Error at exit")
+    check(d.raw("fmi2SetInteger", one(uint, vr["motor.poles"]), 1, bad_int) == fmi2Error,
+          "negative pole count: Error when set")
     ok, e = errors_logged(log, "motor.poles")
     check(ok, f"  message names the parameter: {e}")
-    d.raw("fmi2SetInteger", one(uint, vr["motor.poles"]), 1, one(ctypes.c_int, 12))
+    # All or nothing: a valid resistance next to a load beyond 1 N.m is not applied either.
+    two = (uint * 2)(vr["motor.resistance_ohm"], vr["load_torque_nm"])
+    check(d.raw("fmi2SetReal", two, 2, (dbl * 2)(3.3, 5.0)) == fmi2Error,
+          "set of a valid and an invalid value: Error")
+    ok, e = errors_logged(log, "`load_torque_nm` = 5")
+    check(ok and any("none of the 2 was applied" in m for _, _, m in e),
+          f"  message names the variable and says nothing was applied: {e}")
+    check(d.fmu.getReal([vr["motor.resistance_ohm"]])[0] != 3.3, "  the valid value was not applied")
+    # A rule tying two parameters is checked when the drive is built.
+    check(d.set_real("motor.mutual_inductance_h", 0.9) == fmi2OK, "mutual inductance within its range: OK")
+    check(d.raw("fmi2ExitInitializationMode") == fmi2Error, "mutual above self inductance: Error at exit")
+    ok, e = errors_logged(log, "inductance")
+    check(ok, f"  message names the parameter: {e}")
+    d.set_real("motor.mutual_inductance_h", 0.0)
     check(d.raw("fmi2ExitInitializationMode") == fmi2OK, "fixed values: exit OK")
+
+    # A damaged serialized state: refused with a logged reason, no replay.
+    state = d.fmu.getFMUstate()
+    data = bytearray(d.fmu.serializeFMUstate(state))
+    d.fmu.freeFMUstate(state)
+    data[len(data) // 2] ^= 0x10
+    copy = ctypes.c_void_p()
+    buf = (ctypes.c_char * len(data)).from_buffer(data)
+    check(d.raw("fmi2DeSerializeFMUstate", buf, len(data), ctypes.byref(copy)) == fmi2Error,
+          "bit-flipped serialized state: Error")
+    ok, e = errors_logged(log, "checksum")
+    check(ok, f"  logged as a checksum mismatch: {e}")
 
     # Bad values, references, steps.
     check(d.set_real("speed_ref_rpm", float("nan")) == fmi2Error, "NaN input: Error")
@@ -258,8 +281,9 @@ def bad_calls(md, unzipdir):
     check(d.raw("fmi2DeSerializeFMUstate", b"garbage", 7, ctypes.byref(ctypes.c_void_p())) == fmi2Error,
           "garbage serialized state: Error")
     entries = log.take()
-    # The 12 refusals since the warning check, each logged once as an error.
-    check(len(entries) == 12 and all(s == fmi2Error and c == "logStatusError" for s, c, _ in entries),
+    # The 12 refusals since the warning check, each logged once as an error, plus the
+    # all-or-nothing summary of the refused fmi2SetReal.
+    check(len(entries) == 13 and all(s == fmi2Error and c == "logStatusError" for s, c, _ in entries),
           f"every refusal logged with its category ({len(entries)} messages)")
 
     # Sub-tick steps (7 ns) and ulp jitter are fine; the instance still works after errors.

@@ -113,12 +113,18 @@ fn fmi_crate_sees_bad_calls_refused() {
     );
     FmiInstance::enter_initialization_mode(&mut inst, None, 0.0, None).unwrap();
     let r = vr(&import, "motor.resistance_ohm");
-    Common::set_real(&mut inst, &[r], &[0.0]).unwrap();
+    let m = vr(&import, "motor.mutual_inductance_h");
+    assert!(
+        Common::set_real(&mut inst, &[r, m], &[2.2, -1.0]).is_err(),
+        "a negative mutual inductance breaks its range: the call applies nothing"
+    );
+    // Within its own range, but not below the self inductance: refused when built.
+    Common::set_real(&mut inst, &[m], &[0.9]).unwrap();
     assert!(
         FmiInstance::exit_initialization_mode(&mut inst).is_err(),
-        "R = 0 breaks its rule"
+        "M >= Lp breaks the rule tying them"
     );
-    Common::set_real(&mut inst, &[r], &[2.2]).unwrap();
+    Common::set_real(&mut inst, &[r, m], &[2.2, 0.0]).unwrap();
     FmiInstance::exit_initialization_mode(&mut inst).unwrap();
     assert!(inst.do_step(0.0, -H, true).is_err(), "negative step");
     assert!(inst.do_step(0.0, f64::NAN, true).is_err(), "NaN step");

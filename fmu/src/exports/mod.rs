@@ -10,7 +10,7 @@ pub mod values;
 
 use crate::ffi::{
     CallbackFunctions, Category, ERROR, Handle, Instance, OK, Status, guarded, log_raw, register,
-    resources_of_uri, unregister, with_instance,
+    resources_of_uri, take_states_of, unregister, with_instance,
 };
 use crate::model::Fault;
 use crate::xml::{LOG_CATEGORIES, guid};
@@ -183,16 +183,21 @@ pub unsafe extern "C" fn fmi2Instantiate(
         }
         inst.log(OK, Category::Events, "instantiated");
         let p = Box::into_raw(Box::new(inst)).cast::<c_void>();
-        register(Handle::Instance, p);
+        register(Handle::Instance, p, ptr::null_mut());
         p
     })
 }
 
-/// `fmi2FreeInstance`: ignores NULL and pointers that are not live instances.
+/// `fmi2FreeInstance`: ignores NULL and pointers that are not live instances. Frees the
+/// FMU states the instance made that the master did not free.
 #[unsafe(no_mangle)]
 pub extern "C" fn fmi2FreeInstance(c: Component) {
     guarded((), || {
         if unregister(Handle::Instance, c) {
+            for s in take_states_of(c) {
+                // SAFETY: it was live, so it is our Box; unregistered, so freed exactly once.
+                drop(unsafe { Box::from_raw(s.cast::<crate::state::Snapshot>()) });
+            }
             // SAFETY: it was live, so it is our Box; unregistered, so freed exactly once.
             drop(unsafe { Box::from_raw(c.cast::<Instance>()) });
         }

@@ -3,7 +3,7 @@
 use super::{Component, FmuState, null_error, slice, slice_mut};
 use crate::ffi::Category;
 use crate::ffi::{
-    ERROR, Handle, Instance, OK, Status, guarded, is_live, register, unregister, with_instance,
+    ERROR, Handle, Instance, OK, Status, guarded, is_state_of, register, unregister, with_instance,
 };
 use crate::model::Fault;
 use crate::state::{Snapshot, deserialize, serialize};
@@ -13,7 +13,7 @@ use std::ptr;
 /// The snapshot behind a live state pointer.
 ///
 /// # Safety
-/// `s` must be live (checked by the caller with `is_live`).
+/// `s` must be live (checked by the caller with `is_state_of`).
 unsafe fn snapshot<'a>(s: FmuState) -> &'a mut Snapshot {
     // SAFETY: live states are `Box<Snapshot>` not yet freed.
     unsafe { &mut *s.cast::<Snapshot>() }
@@ -43,18 +43,18 @@ pub unsafe extern "C" fn fmi2GetFMUstate(c: Component, state: *mut FmuState) -> 
             };
             // SAFETY: non-null per check; points to a pointer per the FMI contract.
             let old = unsafe { *state };
-            if is_live(Handle::State, old) {
+            if is_state_of(old, c) {
                 // SAFETY: live.
                 unsafe { snapshot(old) }.model = model;
             } else if !old.is_null() {
                 return state_error(
                     inst,
                     CALL,
-                    "*FMUstate is neither NULL nor a state of this FMU".into(),
+                    "*FMUstate is neither NULL nor a live state of this instance".into(),
                 );
             } else {
                 let p = Box::into_raw(Box::new(Snapshot { model })).cast::<c_void>();
-                register(Handle::State, p);
+                register(Handle::State, p, c);
                 // SAFETY: non-null, writable per the FMI contract.
                 unsafe { *state = p };
             }
@@ -72,11 +72,11 @@ pub unsafe extern "C" fn fmi2SetFMUstate(c: Component, state: FmuState) -> Statu
     const CALL: &str = "fmi2SetFMUstate";
     guarded(ERROR, || {
         with_instance(c, CALL, |inst| {
-            if !is_live(Handle::State, state) {
+            if !is_state_of(state, c) {
                 return state_error(
                     inst,
                     CALL,
-                    "FMUstate is not a live state of this FMU".into(),
+                    "FMUstate is not a live state of this instance (rule: a state from fmi2GetFMUstate or fmi2DeSerializeFMUstate on this instance, not yet freed)".into(),
                 );
             }
             // SAFETY: live.
@@ -111,11 +111,11 @@ pub unsafe extern "C" fn fmi2FreeFMUstate(c: Component, state: *mut FmuState) ->
             if p.is_null() {
                 return OK;
             }
-            if !unregister(Handle::State, p) {
+            if !is_state_of(p, c) || !unregister(Handle::State, p) {
                 return state_error(
                     inst,
                     CALL,
-                    "FMUstate is not a live state of this FMU".into(),
+                    "FMUstate is not a live state of this instance (rule: a state from fmi2GetFMUstate or fmi2DeSerializeFMUstate on this instance, not yet freed)".into(),
                 );
             }
             // SAFETY: it was live, so it is our Box; unregistered, so freed exactly once.
@@ -143,11 +143,11 @@ pub unsafe extern "C" fn fmi2SerializedFMUstateSize(
             if size.is_null() {
                 return null_error(inst, CALL, "size");
             }
-            if !is_live(Handle::State, state) {
+            if !is_state_of(state, c) {
                 return state_error(
                     inst,
                     CALL,
-                    "FMUstate is not a live state of this FMU".into(),
+                    "FMUstate is not a live state of this instance (rule: a state from fmi2GetFMUstate or fmi2DeSerializeFMUstate on this instance, not yet freed)".into(),
                 );
             }
             // SAFETY: live; `size` non-null and writable.
@@ -171,11 +171,11 @@ pub unsafe extern "C" fn fmi2SerializeFMUstate(
     const CALL: &str = "fmi2SerializeFMUstate";
     guarded(ERROR, || {
         with_instance(c, CALL, |inst| {
-            if !is_live(Handle::State, state) {
+            if !is_state_of(state, c) {
                 return state_error(
                     inst,
                     CALL,
-                    "FMUstate is not a live state of this FMU".into(),
+                    "FMUstate is not a live state of this instance (rule: a state from fmi2GetFMUstate or fmi2DeSerializeFMUstate on this instance, not yet freed)".into(),
                 );
             }
             // SAFETY: live.
@@ -222,12 +222,12 @@ pub unsafe extern "C" fn fmi2DeSerializeFMUstate(
             };
             // SAFETY: non-null, readable.
             let old = unsafe { *state };
-            if is_live(Handle::State, old) {
+            if is_state_of(old, c) {
                 // SAFETY: live.
                 unsafe { snapshot(old) }.model = model;
             } else {
                 let p = Box::into_raw(Box::new(Snapshot { model })).cast::<c_void>();
-                register(Handle::State, p);
+                register(Handle::State, p, c);
                 // SAFETY: non-null, writable.
                 unsafe { *state = p };
             }

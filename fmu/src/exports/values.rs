@@ -37,7 +37,8 @@ unsafe fn get<T>(
     })
 }
 
-/// Shared body of the three setters: every value is tried; the worst status wins.
+/// Shared body of the three setters: all or nothing. Every value is checked first; if any
+/// is refused, each refusal is logged and nothing is applied.
 ///
 /// # Safety
 /// `vr` and `value` have `nvr` entries.
@@ -57,12 +58,29 @@ unsafe fn set<T: Copy>(
             }
             // SAFETY: non-null when nvr > 0; sizes per the FMI contract.
             let (vrs, vals) = unsafe { (slice(vr, nvr), slice(value, nvr)) };
-            let mut worst = OK;
+            let mut warnings = Vec::new();
+            let mut refused = 0;
             for (&r, &x) in vrs.iter().zip(vals) {
-                let res = inst.model.set(access, r, convert(x));
-                worst = worst.max(inst.report(call, res));
+                match inst.model.check_set(access, r, convert(x)) {
+                    Ok(w) => warnings.extend(w),
+                    Err(f) => {
+                        refused += 1;
+                        inst.report(call, Err(f));
+                    }
+                }
             }
-            worst
+            if refused > 0 {
+                let msg = format!(
+                    "{refused} of {nvr} values refused; none of the {nvr} was applied (rule: a set call applies all its values or none)"
+                );
+                return inst.report(call, Err(Fault::Error(msg)));
+            }
+            for (&r, &x) in vrs.iter().zip(vals) {
+                inst.model.apply_set(r, convert(x));
+            }
+            warnings
+                .into_iter()
+                .fold(OK, |s, w| s.max(inst.report(call, Err(Fault::Warning(w)))))
         })
     })
 }
@@ -216,7 +234,7 @@ pub unsafe extern "C" fn fmi2SetBoolean(
     }
 }
 
-/// `fmi2SetString`: each string is copied; every value is tried, the worst status wins.
+/// `fmi2SetString`: each string is copied; all or nothing.
 ///
 /// # Safety
 /// FMI contract: `vr` and `value` hold `nvr` entries, each a NUL-terminated string.
@@ -235,7 +253,9 @@ pub unsafe extern "C" fn fmi2SetString(
             }
             // SAFETY: non-null when nvr > 0; sizes per the FMI contract.
             let (vrs, vals) = unsafe { (slice(vr, nvr), slice(value, nvr)) };
-            let mut worst = OK;
+            // All or nothing, as for the numbers: every text is checked before any is set.
+            let mut texts = Vec::with_capacity(nvr);
+            let mut refused = 0;
             for (k, (&r, &p)) in vrs.iter().zip(vals).enumerate() {
                 let res = if p.is_null() {
                     Err(Fault::Error(format!(
@@ -245,16 +265,29 @@ pub unsafe extern "C" fn fmi2SetString(
                     // SAFETY: non-null, NUL-terminated per the FMI contract; copied here.
                     let text = unsafe { CStr::from_ptr(p) };
                     match text.to_str() {
-                        Ok(t) => inst.model.set_text(r, t),
+                        Ok(t) => inst.model.check_text(r).map(|()| texts.push((r, t))),
                         Err(e) => Err(Fault::Error(format!(
                             "value[{k}] (value reference {r}) = {:?} is not UTF-8 ({e}) (rule: FMI strings are UTF-8)",
                             text.to_string_lossy()
                         ))),
                     }
                 };
-                worst = worst.max(inst.report(CALL, res));
+                if res.is_err() {
+                    refused += 1;
+                    inst.report(CALL, res);
+                }
             }
-            worst
+            if refused > 0 {
+                let msg = format!(
+                    "{refused} of {nvr} values refused; none of the {nvr} was applied (rule: a set call applies all its values or none)"
+                );
+                return inst.report(CALL, Err(Fault::Error(msg)));
+            }
+            for (r, t) in texts {
+                // Checked above; cannot fail.
+                let _ = inst.model.set_text(r, t);
+            }
+            OK
         })
     })
 }
