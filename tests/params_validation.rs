@@ -55,6 +55,17 @@ fn motor_rules() {
         "motor.mutual_inductance_h",
         "below motor.self_inductance_h",
     );
+    // Consistency: a coupled electro-mechanical mode too fast for the step (1 Wb·turn on
+    // the built-in rotor: h·ωn ≈ 14; it left the reals), while 10 times the built-in flux
+    // linkage is still fine.
+    refused(
+        |p| p.motor.flux_linkage_wb = 1.0,
+        "motor.flux_linkage_wb",
+        "too strong a coupling",
+    );
+    let mut p = PlantParams::default();
+    p.motor.flux_linkage_wb *= 10.0;
+    p.validate().unwrap();
     // Consistency: a rotor too light for its friction's slope at the solver's step.
     refused(
         |p| p.motor.inertia_kgm2 = 1e-8,

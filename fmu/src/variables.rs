@@ -278,6 +278,9 @@ mod tests {
             ("motor.viscous_friction_nms", "max"),
             ("motor.coulomb_friction_nm", "max"),
             ("motor.coulomb_speed_rad_s", "min"),
+            // The coupled mode: max_step·max(k/√(L·J), k²/(R·J)) <= 2.
+            ("motor.flux_linkage_wb", "max"),
+            ("motor.resistance_ohm", "min"),
         ];
         for v in table() {
             let Role::Parameter { set, .. } = v.role else {

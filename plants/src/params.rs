@@ -598,7 +598,32 @@ impl PlantParams {
         self.power_stage.validate()?;
         self.sensing.validate()?;
         self.solver.validate()?;
-        self.check_mechanics(0.0, 0.0)
+        self.check_mechanics(0.0, 0.0)?;
+        self.check_coupling()
+    }
+
+    /// The currents and the speed are coupled through the back-EMF, and a step takes the
+    /// speed's change within it to first order: the coupled mode must be slow against the
+    /// step. With two phases conducting, k = √3·(P/2)·λr \[V·s/rad\] (line-to-line EMF
+    /// and torque constant), R_loop = 2R and L_loop = 2(Lp + M), the mode is
+    /// s² + (R_loop/L_loop)·s + k²/(L_loop·J) = 0: an oscillation at ωn = k/√(L_loop·J)
+    /// when underdamped, a decay at 1/τm = k²/(R_loop·J) when the winding is fast. Both
+    /// must stay within 2/h for h = `solver.max_step_s`. The built-in motor is at h·ωn ≈
+    /// 0.01; a flux linkage of 1 Wb·turn on its rotor (h·ωn ≈ 14) left the reals.
+    pub fn check_coupling(&self) -> Result<(), ParamError> {
+        let m = &self.motor;
+        let k = 3f64.sqrt() * m.pole_pairs() * m.flux_linkage_wb;
+        let (r, l) = (2.0 * m.resistance_ohm, 2.0 * m.phase_inductance_h());
+        let omega_n = k / (l * m.inertia_kgm2).sqrt();
+        let inv_tau = k * k / (r * m.inertia_kgm2);
+        if self.solver.max_step_s * omega_n.max(inv_tau) > MAX_MECHANICAL_STEP {
+            return Err(ParamError::new(
+                "motor.flux_linkage_wb",
+                m.flux_linkage_wb,
+                "too strong a coupling for the step: with k = √3·(P/2)·λr, solver.max_step_s × max(k/√(2(Lp + M)·J), k²/(2R·J)) must be <= 2 (lower the flux linkage or solver.max_step_s, raise the inertia)",
+            ));
+        }
+        Ok(())
     }
 
     /// The speed's explicit step must be stable: with every drag torque's slope over speed
