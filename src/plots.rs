@@ -85,17 +85,15 @@ fn line(name: &str, points: Vec<(f64, f64)>) -> Series {
     Series {
         name: name.into(),
         points,
-        steps: false,
         ..Series::default()
     }
 }
 
+/// A sample-and-hold signal (the command, logic levels, the state).
 fn steps(name: &str, points: Vec<(f64, f64)>) -> Series {
     Series {
-        name: name.into(),
-        points,
         steps: true,
-        ..Series::default()
+        ..line(name, points)
     }
 }
 

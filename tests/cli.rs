@@ -19,6 +19,11 @@ fn tmp(name: &str) -> PathBuf {
     d.join(name)
 }
 
+/// The JSON document at `p`.
+fn read_json(p: impl AsRef<std::path::Path>) -> serde_json::Value {
+    serde_json::from_str(&std::fs::read_to_string(p).unwrap()).unwrap()
+}
+
 fn text(b: &[u8]) -> String {
     String::from_utf8_lossy(b).into_owned()
 }
@@ -90,8 +95,7 @@ fn run_writes_a_trace_with_the_documented_columns_and_an_honest_summary() {
             .all(|r| (r[col("i_u")] + r[col("i_v")] + r[col("i_w")]).abs() < 1e-5)
     );
 
-    let record: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let record = read_json(&json);
     // Self-describing: the layout's version, the tool's, and the complete scenario.
     assert_eq!(record["schema_version"], 1);
     assert!(record["tool"].as_str().unwrap().starts_with("drive-bench "));
@@ -143,8 +147,7 @@ fn range_reports_bounds_around_the_default_speed_and_its_criterion() {
         json.to_str().unwrap(),
     ]);
     assert!(out.status.success(), "{}", text(&out.stderr));
-    let j: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let j = read_json(&json);
     // One range per meter: the 24-bit one that does not bind, then the published 15-bit.
     let ranges = j.as_array().expect("a list of ranges");
     assert_eq!(ranges.len(), 2);
@@ -297,8 +300,7 @@ fn the_quick_comparison_writes_the_report_folder() {
             "{f}"
         );
     }
-    let j: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(dir.join("results.json")).unwrap()).unwrap();
+    let j = read_json(dir.join("results.json"));
     assert_eq!(j["grid"].as_array().unwrap().len(), 7);
     // Self-describing: the layout's and the tool's versions, the complete config, the seed.
     assert_eq!(j["schema_version"], 1);
@@ -371,11 +373,7 @@ fn a_plugin_strategy_is_listed_and_runs_like_the_builtin_it_reimplements() {
         .concat(),
     );
     assert!(out.status.success(), "{}", text(&out.stderr));
-    let read = |p: &PathBuf| -> serde_json::Value {
-        let r: serde_json::Value =
-            serde_json::from_str(&std::fs::read_to_string(p).unwrap()).unwrap();
-        r["summary"].clone()
-    };
+    let read = |p: &PathBuf| read_json(p)["summary"].clone();
     let (ja, jb) = (read(&a), read(&b));
     assert_eq!(jb["strategy"], "example-twelve-step-df");
     for k in [
@@ -413,8 +411,7 @@ fn a_scenario_file_runs_with_its_profiles_and_the_flags_that_still_apply() {
         json.to_str().unwrap(),
     ]);
     assert!(out.status.success(), "{}", text(&out.stderr));
-    let r: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let r = read_json(&json);
     // The file's strategy and duration, the flag's seed.
     assert_eq!(r["scenario"]["strategy"], "twelve-step-df");
     assert_eq!(r["scenario"]["duration_s"], 3.0);

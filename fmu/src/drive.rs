@@ -524,9 +524,8 @@ mod tests {
         std::fs::remove_dir_all(&dir).unwrap();
     }
 
-    /// The drive built from the table's start values with some set by name, run to `t_s`;
-    /// returns `in_sync` and the true speed.
-    fn in_sync_after(set: &[(&str, f64)], t_s: f64) -> (f64, f64) {
+    /// The drive built from the table's start values with some set by name, run to `t_s`.
+    fn drive_after(set: &[(&str, f64)], t_s: f64) -> Drive {
         let mut values: Vec<f64> = table().iter().map(|v| v.start().unwrap_or(0.0)).collect();
         for &(name, x) in set {
             values[crate::variables::vr_of(name).unwrap() as usize] = x;
@@ -534,22 +533,20 @@ mod tests {
         let texts = vec![String::new(); table().len()];
         let mut d = Drive::new(&values, &texts, None).unwrap();
         d.run_to(Ticks::from_seconds(t_s).unwrap()).unwrap();
+        d
+    }
+
+    /// `in_sync` and the true speed after [`drive_after`].
+    fn in_sync_after(set: &[(&str, f64)], t_s: f64) -> (f64, f64) {
         let mut out = [0.0; 2];
-        d.outputs(&[Output::InSync, Output::SpeedRpm], &mut out);
+        drive_after(set, t_s).outputs(&[Output::InSync, Output::SpeedRpm], &mut out);
         (out[0], out[1])
     }
 
-    /// The `verdict` output after `t_s` with the variables `set`, as a library verdict.
+    /// The `verdict` output after [`drive_after`], as a library verdict.
     fn verdict_after(set: &[(&str, f64)], t_s: f64) -> Verdict {
-        let mut values: Vec<f64> = table().iter().map(|v| v.start().unwrap_or(0.0)).collect();
-        for &(name, x) in set {
-            values[crate::variables::vr_of(name).unwrap() as usize] = x;
-        }
-        let texts = vec![String::new(); table().len()];
-        let mut d = Drive::new(&values, &texts, None).unwrap();
-        d.run_to(Ticks::from_seconds(t_s).unwrap()).unwrap();
         let mut out = [0.0];
-        d.outputs(&[Output::Verdict], &mut out);
+        drive_after(set, t_s).outputs(&[Output::Verdict], &mut out);
         Verdict::ALL[out[0] as usize - 1]
     }
 

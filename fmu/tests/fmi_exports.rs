@@ -11,34 +11,20 @@ use fmu::exports::states::{
 use fmu::exports::steps::fmi2DoStep;
 use fmu::exports::values::{fmi2GetReal, fmi2SetInteger, fmi2SetReal};
 use fmu::exports::{
-    fmi2EnterInitializationMode, fmi2ExitInitializationMode, fmi2FreeInstance, fmi2Instantiate,
-    fmi2SetupExperiment,
+    fmi2EnterInitializationMode, fmi2ExitInitializationMode, fmi2FreeInstance, fmi2SetupExperiment,
 };
-use fmu::ffi::{CallbackFunctions, ERROR, OK, WARNING};
+use fmu::ffi::{ERROR, OK, WARNING};
 use fmu::variables::vr_of;
-use std::ffi::{CString, c_void};
+use std::ffi::c_void;
 use std::ptr;
+
+mod instance;
+use instance::instantiate;
 
 const H: f64 = 1e-3;
 
 fn vr(name: &str) -> u32 {
     vr_of(name).unwrap()
-}
-
-fn instantiate(name: &str) -> *mut c_void {
-    let cb = CallbackFunctions {
-        logger: None,
-        allocate_memory: None,
-        free_memory: None,
-        step_finished: None,
-        component_environment: ptr::null_mut(),
-    };
-    let name = CString::new(name).unwrap();
-    let guid = CString::new(fmu::xml::guid()).unwrap();
-    // SAFETY: valid C strings and callbacks for the duration of the call.
-    let c = unsafe { fmi2Instantiate(name.as_ptr(), 1, guid.as_ptr(), ptr::null(), &cb, 0, 0) };
-    assert!(!c.is_null());
-    c
 }
 
 fn initialized(name: &str) -> *mut c_void {

@@ -16,13 +16,16 @@ use fmu::exports::states::{
 use fmu::exports::steps::fmi2DoStep;
 use fmu::exports::values::{fmi2GetReal, fmi2SetBoolean, fmi2SetInteger, fmi2SetReal};
 use fmu::exports::{
-    fmi2EnterInitializationMode, fmi2ExitInitializationMode, fmi2FreeInstance, fmi2Instantiate,
-    fmi2Reset, fmi2SetupExperiment, fmi2Terminate,
+    fmi2EnterInitializationMode, fmi2ExitInitializationMode, fmi2FreeInstance, fmi2Reset,
+    fmi2SetupExperiment, fmi2Terminate,
 };
-use fmu::ffi::{CallbackFunctions, ERROR, OK, WARNING, caught_panics, live_states};
+use fmu::ffi::{ERROR, OK, WARNING, caught_panics, live_states};
 use fmu::variables::{Kind, Role, table};
-use std::ffi::{CString, c_void};
+use std::ffi::c_void;
 use std::ptr;
+
+mod instance;
+use instance::instantiate;
 
 /// xorshift64*: small, and the same sequence on every platform.
 struct Rng(u64);
@@ -72,23 +75,13 @@ fn outputs() -> Vec<u32> {
 
 /// One sequence on a fresh instance; returns how many calls it made.
 fn sequence(rng: &mut Rng, calls: usize) -> usize {
-    let cb = CallbackFunctions {
-        logger: None,
-        allocate_memory: None,
-        free_memory: None,
-        step_finished: None,
-        component_environment: ptr::null_mut(),
-    };
-    let name = CString::new("fuzz").unwrap();
-    let guid = CString::new(fmu::xml::guid()).unwrap();
     let outs = outputs();
     let vars = table();
     // SAFETY: every pointer passed is valid for the call: C strings, arrays of the stated
     // length, writable out-parameters; state pointers come from the FMU or are deliberately
     // stale, which it must refuse without dereferencing.
     unsafe {
-        let c = fmi2Instantiate(name.as_ptr(), 1, guid.as_ptr(), ptr::null(), &cb, 0, 0);
-        assert!(!c.is_null());
+        let c = instantiate("fuzz");
         let mut t = 0.0;
         let mut states: Vec<*mut c_void> = Vec::new();
         let mut freed: Vec<*mut c_void> = Vec::new();

@@ -10,13 +10,15 @@ use fmu::exports::states::{
 };
 use fmu::exports::steps::fmi2DoStep;
 use fmu::exports::{
-    fmi2EnterInitializationMode, fmi2ExitInitializationMode, fmi2FreeInstance, fmi2Instantiate,
-    fmi2SetupExperiment,
+    fmi2EnterInitializationMode, fmi2ExitInitializationMode, fmi2FreeInstance, fmi2SetupExperiment,
 };
-use fmu::ffi::{CallbackFunctions, OK, live_states};
+use fmu::ffi::{OK, live_states};
 use std::alloc::{GlobalAlloc, Layout, System};
-use std::ffi::{CString, c_void};
+use std::ffi::c_void;
 use std::ptr;
+
+mod instance;
+use instance::instantiate;
 use std::sync::atomic::{AtomicIsize, Ordering};
 
 /// The system allocator, counting the bytes currently allocated.
@@ -44,20 +46,10 @@ static ALLOC: Counting = Counting;
 /// One importer's session: 10 steps, 50 states taken and never freed, 20 taken and
 /// freed, one serialized and deserialized (left for the instance to free).
 fn session() {
-    let cb = CallbackFunctions {
-        logger: None,
-        allocate_memory: None,
-        free_memory: None,
-        step_finished: None,
-        component_environment: ptr::null_mut(),
-    };
-    let name = CString::new("memory").unwrap();
-    let guid = CString::new(fmu::xml::guid()).unwrap();
     // SAFETY: valid C strings and callbacks for the duration of each call; every state
     // pointer is written by the FMU before it is passed back.
     unsafe {
-        let c = fmi2Instantiate(name.as_ptr(), 1, guid.as_ptr(), ptr::null(), &cb, 0, 0);
-        assert!(!c.is_null());
+        let c = instantiate("memory");
         assert_eq!(fmi2SetupExperiment(c, 0, 0.0, 0.0, 0, 0.0), OK);
         assert_eq!(fmi2EnterInitializationMode(c), OK);
         assert_eq!(fmi2ExitInitializationMode(c), OK);
