@@ -55,7 +55,28 @@ impl DriveConfig {
     pub fn validate(&self) -> Result<(), ParamError> {
         self.plant_params().validate()?;
         self.control.validate()?;
-        self.strategy.validate()
+        self.strategy.validate()?;
+        self.check_current_limit()
+    }
+
+    /// The current loop limits only what it can read: a limit at or above the current
+    /// sense's full scale (amplifier swing or ADC range, whichever is lower, over gain ×
+    /// shunt) reads as a clipped value that never exceeds it, and the loop stops limiting.
+    fn check_current_limit(&self) -> Result<(), ParamError> {
+        let s = &self.sensing.current;
+        let full_scale_a = s.amplifier_max_v.min(s.adc_full_scale_v)
+            / (s.amplifier_gain * self.power_stage.shunt_ohm);
+        if self.control.current_limit_a < full_scale_a {
+            Ok(())
+        } else {
+            Err(ParamError::new(
+                "control.current_limit_a",
+                self.control.current_limit_a,
+                "< the current sense's full scale, min(sensing.current.amplifier_max_v, \
+                 sensing.current.adc_full_scale_v) / (sensing.current.amplifier_gain · \
+                 power_stage.shunt_ohm) (0.5 A by default)",
+            ))
+        }
     }
 
     /// The plant's part.

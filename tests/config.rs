@@ -118,3 +118,22 @@ fn bad_configs_are_refused_naming_the_key() {
         "motor.coulomb_friction_nm",
     );
 }
+
+/// The current sense reads at most min(10 V, 10 V) / (80 · 0.25 Ω) = 0.5 A with the default
+/// sensing; a limit at or above it reads as clipped and is never reached.
+#[test]
+fn current_limit_must_be_readable() {
+    refused(
+        "[control]\ncurrent_limit_a = 0.5\n",
+        "control.current_limit_a",
+    );
+    DriveConfig::from_toml("[control]\ncurrent_limit_a = 0.499\n").unwrap();
+    // A smaller shunt raises the full scale to 1 A: the same 0.5 A limit is then fine.
+    DriveConfig::from_toml("[control]\ncurrent_limit_a = 0.5\n[power_stage]\nshunt_ohm = 0.125\n")
+        .unwrap();
+    // A lower amplifier swing lowers it: 5 V / 20 V/A = 0.25 A refuses the default 0.25 A.
+    refused(
+        "[sensing.current]\namplifier_max_v = 5.0\n",
+        "control.current_limit_a",
+    );
+}
