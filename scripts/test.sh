@@ -47,6 +47,8 @@ for t in fmu/tests/*.py; do
     "$venv/bin/python" "$t"
 done
 # The README's examples keep working: the FMU from Python, the library from Rust.
+echo "== examples/fmu/quickstart.py"
+"$venv/bin/python" examples/fmu/quickstart.py target/fmu/BldcDrive.fmu
 echo "== examples/fmu/speed_step.py"
 "$venv/bin/python" examples/fmu/speed_step.py target/fmu/BldcDrive.fmu
 cargo run --quiet --profile test --locked --example library

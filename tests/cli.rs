@@ -492,3 +492,40 @@ fn bad_outputs_and_oversized_traces_are_refused_before_the_run() {
     }
     assert_eq!(std::fs::read_to_string(&csv).unwrap(), "precious\n");
 }
+
+/// Without --strategy and --speed-rpm, `run` runs the config's drive: its strategy and its
+/// speed command (the built-in twelve-step-df at 3000 rpm, or what a --config file says).
+#[test]
+fn run_defaults_to_the_configs_strategy_and_speed() {
+    let (json, cfg) = (tmp("defaults.json"), tmp("defaults.toml"));
+    let out = bench(&[
+        "run",
+        "--duration-s",
+        "0.2",
+        "--json",
+        json.to_str().unwrap(),
+    ]);
+    assert!(out.status.code().is_some(), "{}", text(&out.stderr));
+    let r = read_json(&json);
+    assert_eq!(r["scenario"]["strategy"], "twelve-step-df");
+    assert_eq!(r["summary"]["speed_ref_rpm"], 3000.0);
+
+    std::fs::write(
+        &cfg,
+        "[control]\nspeed_ref_rpm = 2000.0\n[strategy]\nname = \"six-step-120\"\n",
+    )
+    .unwrap();
+    let out = bench(&[
+        "run",
+        "--config",
+        cfg.to_str().unwrap(),
+        "--duration-s",
+        "0.2",
+        "--json",
+        json.to_str().unwrap(),
+    ]);
+    assert!(out.status.code().is_some(), "{}", text(&out.stderr));
+    let r = read_json(&json);
+    assert_eq!(r["scenario"]["strategy"], "six-step-120");
+    assert_eq!(r["summary"]["speed_ref_rpm"], 2000.0);
+}

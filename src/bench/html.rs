@@ -104,4 +104,51 @@ mod tests {
             assert!(!p.contains(fetch), "{fetch}");
         }
     }
+
+    /// The sorting script, run by Node.js on a minimal stand-in for the page's DOM: a
+    /// click sorts numbers by value (not as text: 10.5 after 9), puts text such as a verdict or
+    /// "–" after them in the locale's order (punctuation before letters), and a second
+    /// click reverses.
+    #[test]
+    fn a_header_click_sorts_its_column() {
+        let dom = r#"
+function el(text) {
+  var cls = {};
+  return { textContent: text, handlers: [],
+    classList: { add: function () { for (var c of arguments) cls[c] = 1; },
+                 remove: function () { for (var c of arguments) delete cls[c]; },
+                 contains: function (c) { return !!cls[c]; } },
+    addEventListener: function (_, f) { this.handlers.push(f); },
+    click: function () { this.handlers.forEach(function (f) { f(); }); } };
+}
+var cells = [['a', '9'], ['b', 'lost-sync'], ['c', '10.5'], ['d', '-2e1'], ['e', '–']];
+var heads = [el('name'), el('rpm')];
+var body = { rows: cells.map(function (c) { return { cells: c.map(el), id: c[0] }; }),
+  appendChild: function (r) { this.rows.splice(this.rows.indexOf(r), 1); this.rows.push(r); } };
+var table = { querySelectorAll: function () { return heads; }, tBodies: [body] };
+var document = { querySelectorAll: function () { return [table]; } };
+"#;
+        let check = r#"
+var order = function () { return body.rows.map(function (r) { return r.id; }).join(''); };
+heads[1].click();
+if (order() !== 'daceb') throw new Error('ascending: ' + order());
+heads[1].click();
+if (order() !== 'becad') throw new Error('descending: ' + order());
+if (!heads[1].classList.contains('desc') || heads[0].classList.contains('asc')) throw new Error('marks');
+heads[0].click();
+if (order() !== 'abcde') throw new Error('text: ' + order());
+"#;
+        let out = std::process::Command::new("node")
+            .arg("-e")
+            .arg(format!("{dom}{SORT}{check}"))
+            .output()
+            .unwrap_or_else(|e| {
+                panic!("node not found ({e}): install Node.js (apt-get install nodejs)")
+            });
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+    }
 }

@@ -40,7 +40,7 @@ pub const METRIC_DEFINITIONS: &[(&str, &str)] = &[
     ),
     (
         "restarts",
-        "step-miss errors after which the chip re-aligned and started again",
+        "restarts during the run (a step miss or a supervisor trip), after each of which the chip re-aligned and started again",
     ),
     (
         "forced crossings",
@@ -303,6 +303,23 @@ pub const GRID_COLUMNS: [(&str, &str, &str); 21] = [
     ("wall_s", "s", "wall-clock time of the run"),
     ("realtime_factor", "", "sim_s / wall_s"),
 ];
+
+/// The metric definitions and the `results.csv` column reference, as Markdown sections:
+/// the report's, and the project's `docs/outputs.md` (a test keeps it current).
+pub fn metrics_reference(grid_duration_s: f64) -> String {
+    let mut s = String::from("\n## Metrics\n\n");
+    for (name, def) in METRIC_DEFINITIONS {
+        let _ = writeln!(s, "- **{name}**: {def}.");
+    }
+    let _ = writeln!(
+        s,
+        "\n## results.csv columns\n\nOne row per grid run (every strategy at every grid speed, {grid_duration_s} s from standstill; the window is the last third). `results.json` holds the same runs and every other experiment, with the tool's version, the complete config and the seeds.\n\n| column | unit | definition |\n|---|---|---|",
+    );
+    for (name, unit, def) in GRID_COLUMNS {
+        let _ = writeln!(s, "| `{name}` | {unit} | {def} |");
+    }
+    s
+}
 
 /// `results.json`: what produced the comparison, then the comparison itself.
 #[derive(Serialize)]
@@ -587,18 +604,7 @@ fn markdown(c: &Comparison, config: &DriveConfig, crossings: &[String]) -> Strin
     );
     let _ = writeln!(s, "## Summary\n\n```\n{}```\n", terminal_table(c));
     s.push_str(&super::results::section(c));
-    let _ = writeln!(s, "\n## Metrics\n");
-    for (name, def) in METRIC_DEFINITIONS {
-        let _ = writeln!(s, "- **{name}**: {def}.");
-    }
-    let _ = writeln!(
-        s,
-        "\n## results.csv columns\n\nOne row per grid run (every strategy at every grid speed, {} s from standstill; the window is the last third). `results.json` holds the same runs and every other experiment, with the tool's version, the complete config and the seeds.\n\n| column | unit | definition |\n|---|---|---|",
-        c.plan.grid_duration_s
-    );
-    for (name, unit, def) in GRID_COLUMNS {
-        let _ = writeln!(s, "| `{name}` | {unit} | {def} |");
-    }
+    s.push_str(&metrics_reference(c.plan.grid_duration_s));
     let _ = writeln!(
         s,
         "\n## Speed range\n\nJudged by the verdict ({}). Each bound is followed by what stops it: the verdict of the failed run just beyond it.\n\n| strategy | meter | floor rpm | limited by | top rpm | limited by | runs |\n|---|---|---:|---|---:|---|---:|",

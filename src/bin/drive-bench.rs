@@ -90,11 +90,12 @@ struct RunArgs {
     /// --load-nm; --strategy, --config and --seed still apply.
     #[arg(long, conflicts_with_all = ["speed_rpm", "duration_s", "load_nm"])]
     scenario: Option<PathBuf>,
-    /// Strategy name (see `drive-bench list`); with --scenario, overrides its strategy.
-    #[arg(long, required_unless_present = "scenario")]
+    /// Strategy name (see `drive-bench list`; default: the config's `strategy.name`); with
+    /// --scenario, overrides its strategy.
+    #[arg(long)]
     strategy: Option<String>,
-    /// Constant speed command, in rpm.
-    #[arg(long, required_unless_present = "scenario")]
+    /// Constant speed command, in rpm (default: the config's `control.speed_ref_rpm`).
+    #[arg(long)]
     speed_rpm: Option<f64>,
     /// Simulated time, in s; steady state is the last third (default 3).
     #[arg(long)]
@@ -327,7 +328,8 @@ fn run_one(a: RunArgs, plugins: &[PluginLibrary]) -> Result<i32, String> {
         }
         None => {
             let duration = a.duration_s.unwrap_or(3.0);
-            let mut sc = Scenario::hold(cfg.clone(), a.speed_rpm.unwrap_or(0.0), duration);
+            let rpm = a.speed_rpm.unwrap_or(cfg.control.speed_ref_rpm);
+            let mut sc = Scenario::hold(cfg.clone(), rpm, duration);
             sc.load = LoadProfile::coulomb(a.load_nm.unwrap_or(0.0));
             sc
         }
