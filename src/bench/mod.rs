@@ -209,6 +209,27 @@ impl AwCase {
         self.to_rpm < self.speed_before()
     }
 
+    /// The peak beyond the command of `run` in percent: of the command's change for a
+    /// speed step (the usual overshoot), of the command itself for the release of a load.
+    /// A release starts from wherever the load held the speed, often a few rpm below the
+    /// command, so a percentage of that small change would read as hundreds of percent.
+    pub fn peak_pct(&self, run: &StepRun) -> f64 {
+        if self.to_rpm != self.speed_before() {
+            run.response.beyond_pct(self.is_step_down())
+        } else {
+            100.0 * run.peak_beyond_rpm / self.to_rpm.abs()
+        }
+    }
+
+    /// What [`Self::peak_pct`] is a percentage of.
+    pub fn peak_pct_of(&self) -> &'static str {
+        if self.to_rpm != self.speed_before() {
+            "of the step"
+        } else {
+            "of the command"
+        }
+    }
+
     /// The command just before the measured event \[rpm\].
     pub fn speed_before(&self) -> f64 {
         let p = self.speed_rpm.points();
@@ -565,4 +586,46 @@ pub fn compare(
     }
     cmp.wall_s = wall.elapsed().as_secs_f64();
     Ok(cmp)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn run_with(peak_beyond_rpm: f64, response: crate::metrics::StepResponse) -> StepRun {
+        StepRun {
+            variant: "v".into(),
+            case: 0,
+            anti_windup: AntiWindup::Off,
+            from_rpm: 0.0,
+            peak_beyond_rpm,
+            dip_rpm: None,
+            full_duty_after_s: 0.0,
+            response,
+            restarts: 0,
+            verdict: crate::verdict::Verdict::Running,
+            speed: Vec::new(),
+        }
+    }
+
+    /// A speed step's peak is a share of the step; a load release's, of the command (it
+    /// starts a few rpm below the command, and 600 rpm beyond 6000 is 10 %, not 600 %).
+    #[test]
+    fn peak_percentages_have_a_meaningful_base() {
+        let cases = StepPlan::default().cases;
+        let step = &cases[0]; // 1500 → 6000 rpm
+        let load = &cases[2]; // a load released at 6000 rpm
+        assert_eq!(
+            (step.peak_pct_of(), load.peak_pct_of()),
+            ("of the step", "of the command")
+        );
+        // 900 rpm beyond 6000 after a 4500 rpm step: 20 % of the step.
+        let samples = [(2.9, 1500.0), (3.2, 6900.0), (3.6, 6000.0)];
+        let r = crate::metrics::step_response(&samples, 3.0, 1500.0, 6000.0);
+        assert!((step.peak_pct(&run_with(900.0, r)) - 20.0).abs() < 1e-9);
+        // Released from 5990 rpm, peaking at 6600 rpm: 10 % of the command.
+        let samples = [(2.9, 5990.0), (3.2, 6600.0), (3.6, 6000.0)];
+        let r = crate::metrics::step_response(&samples, 3.0, 5990.0, 6000.0);
+        assert!((load.peak_pct(&run_with(600.0, r)) - 10.0).abs() < 1e-9);
+    }
 }

@@ -684,11 +684,12 @@ fn markdown(c: &Comparison, config: &DriveConfig, crossings: &[String]) -> Strin
     for (k, case) in c.plan.step.cases.iter().enumerate() {
         let _ = writeln!(
             s,
-            "### {}\n\nSaturates: {}. Measured from {} s.\n\n| strategy | anti-windup | from rpm | load dip rpm | full duty after ms | peak {} rpm | peak % | settling s | restarts |\n|---|---|---:|---:|---:|---:|---:|---:|---:|",
+            "### {}\n\nSaturates: {}. Measured from {} s.\n\n| strategy | anti-windup | from rpm | load dip rpm | full duty after ms | peak {} rpm | peak % {} | settling s | restarts |\n|---|---|---:|---:|---:|---:|---:|---:|---:|",
             case.name,
             case.saturates,
             case.at_s,
-            if case.is_step_down() { "under" } else { "over" }
+            if case.is_step_down() { "under" } else { "over" },
+            case.peak_pct_of()
         );
         for x in c.steps.iter().filter(|x| x.case == k) {
             if !x.verdict.in_sync() {
@@ -711,7 +712,7 @@ fn markdown(c: &Comparison, config: &DriveConfig, crossings: &[String]) -> Strin
                 opt(x.dip_rpm, 1.0, 0),
                 x.full_duty_after_s * 1e3,
                 x.peak_beyond_rpm,
-                x.response.beyond_pct(case.is_step_down()),
+                case.peak_pct(x),
                 opt(x.response.settling_s, 1.0, 3),
                 x.restarts
             );

@@ -171,7 +171,7 @@ fn top_speed(c: &Comparison, s: &mut String) {
 fn anti_windup(c: &Comparison, s: &mut String) {
     let _ = writeln!(
         s,
-        "\n### Speed steps with and without anti-windup\n\n![speed_step.svg](speed_step.svg)\n\nThe peak beyond the command in the direction of the change (overshoot after a step up, undershoot after a step down) [%] and the settling time [s], for anti-windup off / on the current PI (the chip's) / on both PIs; details in the anti-windup section below.\n\n| case | strategy | off | current PI | both PIs |\n|---|---|---|---|---|"
+        "\n### Speed steps with and without anti-windup\n\n![speed_step.svg](speed_step.svg)\n\nThe peak beyond the command in the direction of the change (overshoot after a step up or a load's release, undershoot after a step down), in % of the step or, after a load's release, of the command, and the settling time [s], for anti-windup off / on the current PI (the chip's) / on both PIs; details in the anti-windup section below.\n\n| case | strategy | off | current PI | both PIs |\n|---|---|---|---|---|"
     );
     for (k, case) in c.plan.step.cases.iter().enumerate() {
         for v in &c.plan.step.variants {
@@ -184,8 +184,9 @@ fn anti_windup(c: &Comparison, s: &mut String) {
                             return format!("*{}*", x.verdict);
                         }
                         format!(
-                            "{:.1} %, {}",
-                            x.response.beyond_pct(case.is_step_down()),
+                            "{:.1} % {}, {}",
+                            case.peak_pct(x),
+                            case.peak_pct_of(),
                             x.response
                                 .settling_s
                                 .map_or("not settled".into(), |t| format!("{t:.2} s"))

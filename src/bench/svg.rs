@@ -32,11 +32,31 @@ const COLORS: [&str; 8] = [
 ];
 const W: f64 = 1000.0;
 const PANEL_H: f64 = 220.0;
-const LEFT: f64 = 70.0;
+const LEFT: f64 = 80.0;
 const RIGHT: f64 = 290.0;
 const TOP: f64 = 40.0;
 const GAP: f64 = 30.0;
 const MAX_POINTS: usize = 4000;
+
+/// Characters of a y label that fit along a panel's height (≈ 7.5 px each at the default
+/// font size).
+const LABEL_CHARS: usize = 28;
+
+/// `text` in lines of at most `max` characters, broken between words (a longer word
+/// keeps its own line).
+fn wrap(text: &str, max: usize) -> Vec<String> {
+    let mut lines: Vec<String> = Vec::new();
+    for word in text.split(' ') {
+        match lines.last_mut() {
+            Some(l) if l.chars().count() + 1 + word.chars().count() <= max => {
+                l.push(' ');
+                l.push_str(word);
+            }
+            _ => lines.push(word.to_string()),
+        }
+    }
+    lines
+}
 
 /// Round tick spacing covering `span` with about five ticks.
 fn tick_step(span: f64) -> f64 {
@@ -139,12 +159,20 @@ pub fn chart(title: &str, x_label: &str, panels: &[Panel]) -> String {
             );
             x += dx;
         }
-        let _ = writeln!(
+        // A label longer than the panel is tall goes on two or more lines (a case name
+        // with its unit would otherwise run into the next panel's label).
+        let lines = wrap(&panel.y_label, LABEL_CHARS);
+        let _ = write!(
             s,
-            r#"<text transform="translate(15,{}) rotate(-90)" text-anchor="middle">{}</text>"#,
+            r#"<text transform="translate({:.1},{}) rotate(-90)" text-anchor="middle">"#,
+            15.0 - 3.0 * (lines.len() - 1) as f64,
             top + PANEL_H / 2.0,
-            escape(&panel.y_label)
         );
+        for (j, line) in lines.iter().enumerate() {
+            let dy = if j == 0 { "0" } else { "1.2em" };
+            let _ = write!(s, r#"<tspan x="0" dy="{dy}">{}</tspan>"#, escape(line));
+        }
+        let _ = writeln!(s, "</text>");
         for (j, series) in panel.series.iter().enumerate() {
             let color = COLORS[series.color.unwrap_or(j) % COLORS.len()];
             let dash = series
@@ -221,6 +249,15 @@ mod tests {
         assert_eq!(tick_step(10.0), 2.0);
         assert_eq!(tick_step(0.003), 0.0005);
         assert_eq!(tick_step(7000.0), 1000.0);
+    }
+
+    #[test]
+    fn long_labels_wrap_between_words() {
+        let label = "step 16000 (beyond reach) → 8000 rpm [rpm]";
+        let lines = wrap(label, LABEL_CHARS);
+        assert_eq!(lines, ["step 16000 (beyond reach) →", "8000 rpm [rpm]"]);
+        assert_eq!(lines.join(" "), label);
+        assert_eq!(wrap("speed [rpm]", LABEL_CHARS), ["speed [rpm]"]);
     }
 
     #[test]
