@@ -1,46 +1,37 @@
 //! Runs independent jobs on every core, with an optional progress bar on stderr.
 
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
-use std::sync::Mutex;
-use std::sync::atomic::{AtomicUsize, Ordering};
+use rayon::prelude::*;
 
 /// Runs `f` on every item, on up to `threads` threads, returning results in item order.
-/// A progress bar is drawn on stderr when `progress` is set and stderr is a terminal.
+/// A progress bar is drawn on stderr when `progress` is set and stderr is a terminal. A
+/// panic in `f` reaches the caller, as it would in a loop.
 pub fn map<T: Sync, R: Send>(
     items: &[T],
     threads: usize,
     progress: Option<&str>,
     f: impl Fn(&T) -> R + Sync,
 ) -> Vec<R> {
-    let next = AtomicUsize::new(0);
-    let results: Mutex<Vec<Option<R>>> = Mutex::new((0..items.len()).map(|_| None).collect());
     let bar = match progress {
         Some(label) => bar(label, items.len() as u64, "runs"),
         None => ProgressBar::hidden(),
     };
-    std::thread::scope(|s| {
-        for _ in 0..threads.clamp(1, items.len().max(1)) {
-            s.spawn(|| {
-                loop {
-                    let k = next.fetch_add(1, Ordering::Relaxed);
-                    let Some(item) = items.get(k) else { break };
-                    let r = f(item);
-                    // A poisoned lock only means another job panicked; keep its slot empty.
-                    if let Ok(mut v) = results.lock() {
-                        v[k] = Some(r);
-                    }
-                    bar.inc(1);
-                }
-            });
-        }
-    });
+    let job = |item: &T| {
+        let r = f(item);
+        bar.inc(1);
+        r
+    };
+    // Its own pool, so `threads` holds whatever the global pool is doing.
+    let out = match rayon::ThreadPoolBuilder::new()
+        .num_threads(threads.max(1))
+        .build()
+    {
+        Ok(pool) => pool.install(|| items.par_iter().map(job).collect()),
+        // No threads to be had: the same work, here.
+        Err(_) => items.iter().map(job).collect(),
+    };
     bar.finish_and_clear();
-    results
-        .into_inner()
-        .unwrap_or_default()
-        .into_iter()
-        .map(|r| r.expect("every job ran to completion"))
-        .collect()
+    out
 }
 
 /// A bar of `len` `unit` with its ETA on stderr, drawn only when stderr is a terminal (a
