@@ -267,9 +267,9 @@ impl Circuit {
         let i = i.to_array();
         let e = e.to_array();
         let mut i_sh = 0.0;
-        for k in 0..3 {
-            if plan.low[k] {
-                i_sh -= i[k];
+        for (&ix, &low) in i.iter().zip(&plan.low) {
+            if low {
+                i_sh -= ix;
             }
         }
         let v_lr = self.r_sh * i_sh;
