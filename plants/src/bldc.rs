@@ -17,7 +17,7 @@
 //! diode's current reaching zero (the current is then set to exactly zero and the phase
 //! floats), and an open terminal reaching a diode clamp (the diode starts conducting).
 
-use crate::circuit::{self, Circuit, Conduction, Linearised, Powers, Solution};
+use crate::circuit::{self, Circuit, Conduction, Linearised, Plan, Powers, Solution};
 use crate::emf;
 use crate::load::Load;
 use crate::modal::{Forcing, Modal, Response};
@@ -203,8 +203,8 @@ pub struct BldcPlant {
     same_instant_events: u32,
     /// Phases whose events are ignored for one step (see `finish_step`).
     muted: [bool; 3],
-    /// The network's affine and modal forms for the 125 conduction states (each built when
-    /// first entered, shared by clones), and the index of the present one.
+    /// The network's affine and modal forms and plans for the 125 conduction states (each
+    /// built when first entered, shared by clones), and the index of the present one.
     forms: Arc<[OnceLock<Form>]>,
     lin: usize,
     /// Whether steps use the modal forms' exact currents (sinusoidal back-EMF) where
@@ -439,8 +439,12 @@ impl BldcPlant {
     fn solve_near(&self, x: &State, base: (f64, f64, f64)) -> Solution {
         let f = emf::shape_with(&self.shape, x[THETA], emf::sin_cos_near(x[THETA], base));
         let k = self.lambda * self.pp * x[OMEGA];
-        self.circuit
-            .solve(&self.modes, &Self::currents(x), &f.map(|v| k * v))
+        self.circuit.solve_planned(
+            &self.form().2,
+            &self.modes,
+            &Self::currents(x),
+            &f.map(|v| k * v),
+        )
     }
 
     /// The present conduction state's forms, built on first use: a plant visits a handful
@@ -465,9 +469,12 @@ impl BldcPlant {
     fn deriv_and_solution(&self, x: &State, base: (f64, f64, f64)) -> (State, Solution) {
         let f = emf::shape_with(&self.shape, x[THETA], emf::sin_cos_near(x[THETA], base));
         let k = self.lambda * self.pp * x[OMEGA];
-        let s = self
-            .circuit
-            .solve(&self.modes, &Self::currents(x), &f.map(|v| k * v));
+        let s = self.circuit.solve_planned(
+            &self.form().2,
+            &self.modes,
+            &Self::currents(x),
+            &f.map(|v| k * v),
+        );
         (
             self.assemble(&dynamic(x), &f, s.di.to_array(), &s.powers),
             s,
@@ -892,13 +899,14 @@ impl BldcPlant {
     fn refresh_start_at(&mut self, at_clamp: Option<Phase>, keep_open: Option<Phase>) {
         self.fsal = None;
         let (_, e) = self.emf_of(&self.x);
-        (self.modes, self.start) = self.circuit.resolve(
-            &self.gates,
-            &Self::currents(&self.x),
-            &e,
-            at_clamp,
-            keep_open,
-        );
+        let i = Self::currents(&self.x);
+        (self.modes, self.start) =
+            self.circuit
+                .resolve_with(&self.gates, &i, &e, (at_clamp, keep_open), |m| {
+                    let k = circuit::state_index(m);
+                    let plan = &self.forms[k].get_or_init(|| form_at(&self.circuit, k)).2;
+                    self.circuit.solve_planned(plan, m, &i, &e)
+                });
         self.lin = circuit::state_index(&self.modes);
     }
 
@@ -1264,14 +1272,15 @@ impl BldcPlant {
     }
 }
 
-/// The network's affine and modal forms for one conduction state.
-type Form = (Linearised, Option<Modal>);
+/// The network's affine and modal forms for one conduction state, and its legs decoded
+/// for the network's solution (see [`Circuit::solve_planned`]).
+type Form = (Linearised, Option<Modal>, Plan);
 
 /// The forms of the conduction state at index `k` (see [`circuit::state_index`]).
 fn form_at(circuit: &Circuit, k: usize) -> Form {
     let modes = circuit::state_at(k);
     let lin = circuit.linearise(&modes);
-    (lin, Modal::new(&modes, &lin))
+    (lin, Modal::new(&modes, &lin), circuit.plan(&modes))
 }
 
 /// tanh(x), the smooth sign of the Coulomb friction: ±1 without the call beyond |x| = 20,

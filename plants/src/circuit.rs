@@ -250,6 +250,97 @@ impl Circuit {
         }
     }
 
+    /// [`Circuit::solve`] for the conduction state `plan` was made for (see [`Plan`]): the
+    /// same operations in the same order, so the same result bit for bit, without decoding
+    /// the legs' states at every call.
+    #[inline]
+    pub fn solve_planned(
+        &self,
+        plan: &Plan,
+        modes: &Abc<Conduction>,
+        i: &Abc<f64>,
+        e: &Abc<f64>,
+    ) -> Solution {
+        if !plan.shared {
+            return self.solve(modes, i, e);
+        }
+        let i = i.to_array();
+        let e = e.to_array();
+        let mut i_sh = 0.0;
+        for (&ix, &low) in i.iter().zip(&plan.low) {
+            if low {
+                i_sh -= ix;
+            }
+        }
+        let v_lr = self.r_sh * i_sh;
+        let mut v = [0.0; 3];
+        let mut sum = 0.0;
+        let mut pw = Powers {
+            shunt: self.r_sh * i_sh * i_sh,
+            ..Powers::default()
+        };
+        for k in 0..3 {
+            let ix = i[k];
+            let vx = plan.vs[k] + if plan.low[k] { v_lr } else { 0.0 } - plan.rs[k] * ix;
+            let on = plan.on[k];
+            v[k] = if on { vx } else { 0.0 };
+            sum += if on { vx - self.r * ix - e[k] } else { 0.0 };
+            pw.supply += if plan.high[k] { self.vdd * ix } else { 0.0 };
+            pw.diode += if plan.diode[k] {
+                self.vf * ix.abs() + self.r_d * ix * ix
+            } else {
+                0.0
+            };
+            pw.switch += if on && !plan.diode[k] {
+                self.r_on * ix * ix
+            } else {
+                0.0
+            };
+            pw.copper += if on { self.r * ix * ix } else { 0.0 };
+            pw.airgap += if on { e[k] * ix } else { 0.0 };
+        }
+        let v_n = sum / plan.n_c;
+        let mut di = [0.0; 3];
+        for k in 0..3 {
+            if plan.on[k] {
+                di[k] = (v[k] - v_n - self.r * i[k] - e[k]) * self.inv_l;
+            } else {
+                v[k] = v_n + e[k];
+            }
+        }
+        Solution {
+            di: Abc {
+                u: di[0],
+                v: di[1],
+                w: di[2],
+            },
+            v_term: Abc {
+                u: v[0],
+                v: v[1],
+                w: v[2],
+            },
+            v_n,
+            i_shunt: i_sh,
+            powers: pw,
+        }
+    }
+
+    /// The plan of [`Circuit::solve_planned`] for conduction state `modes`.
+    pub fn plan(&self, modes: &Abc<Conduction>) -> Plan {
+        let m = modes.to_array();
+        let n_c = m.iter().filter(|c| c.conducts()).count();
+        Plan {
+            shared: n_c >= 2,
+            n_c: n_c as f64,
+            on: m.map(Conduction::conducts),
+            low: m.map(Conduction::is_low),
+            high: m.map(Conduction::is_high),
+            diode: m.map(Conduction::is_diode),
+            vs: m.map(|c| self.source(c).0),
+            rs: m.map(|c| self.source(c).1),
+        }
+    }
+
     /// The legs whose terminal [`Circuit::solve`] puts at v_n + e_x: the open ones, and with
     /// fewer than two legs conducting the diode ones too (nothing carries their current).
     pub fn follows_neutral(modes: &Abc<Conduction>) -> [bool; 3] {
@@ -315,6 +406,21 @@ impl Circuit {
         at_clamp: Option<Phase>,
         keep_open: Option<Phase>,
     ) -> (Abc<Conduction>, Solution) {
+        self.resolve_with(gates, i, e, (at_clamp, keep_open), |m| self.solve(m, i, e))
+    }
+
+    /// [`Circuit::resolve`] with the network solved in each conduction state tried by
+    /// `solve`, which must give [`Circuit::solve`]'s solution for currents `i` and back-EMFs
+    /// `e` (a caller holding [`Plan`]s passes [`Circuit::solve_planned`]); `(at_clamp,
+    /// keep_open)` as there.
+    pub fn resolve_with(
+        &self,
+        gates: &Gates,
+        i: &Abc<f64>,
+        e: &Abc<f64>,
+        (at_clamp, keep_open): (Option<Phase>, Option<Phase>),
+        solve: impl Fn(&Abc<Conduction>) -> Solution,
+    ) -> (Abc<Conduction>, Solution) {
         let mut modes = Abc::from_fn(|p| {
             if gates.high.get(p) {
                 Conduction::SwitchHigh
@@ -328,7 +434,7 @@ impl Circuit {
                 Conduction::Open
             }
         });
-        let mut sol = self.solve(&modes, i, e);
+        let mut sol = solve(&modes);
         for round in 0..3 {
             let mut worst: Option<(Phase, f64)> = None;
             for p in Phase::ALL {
@@ -372,7 +478,7 @@ impl Circuit {
                 *trial.get_mut(hi_p) = Conduction::DiodeHigh;
                 *trial.get_mut(lo_p) = Conduction::DiodeLow;
             }
-            let s = self.solve(&trial, i, e);
+            let s = solve(&trial);
             let consistent = Phase::ALL
                 .iter()
                 .all(|&q| match (modes.get(q), trial.get(q)) {
@@ -388,6 +494,22 @@ impl Circuit {
         }
         (modes, sol)
     }
+}
+
+/// One conduction state's legs decoded for [`Circuit::solve_planned`]: whether each leg
+/// conducts, is tied to the low rail, to V_DD, through a diode, and its source (V_src,
+/// R_src). Only a state with two or more legs conducting (the neutral shared by them) takes
+/// the planned path; the others go through [`Circuit::solve`].
+#[derive(Copy, Clone, Debug, Default, PartialEq)]
+pub struct Plan {
+    shared: bool,
+    n_c: f64,
+    on: [bool; 3],
+    low: [bool; 3],
+    high: [bool; 3],
+    diode: [bool; 3],
+    vs: [f64; 3],
+    rs: [f64; 3],
 }
 
 /// The network for one conduction state as an affine map (the topology is constant between

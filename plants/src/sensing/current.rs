@@ -91,7 +91,9 @@ impl CurrentSense {
     fn quantise(&self, v: f64) -> u16 {
         // The cast truncates, which is the floor for the non-negative values that matter
         // (negative ones saturate to code 0 either way), without a library call.
-        ((v / self.full_scale * self.codes) as u64).min(self.max_code as u64) as u16
+        // Through i64, which baseline x86-64 converts in one instruction (u64 takes a
+        // branchy sequence); the clamp gives the same code for every input, NaN included.
+        ((v / self.full_scale * self.codes) as i64).clamp(0, self.max_code as i64) as u16
     }
 
     /// Records as the last update's pieces the filter over [0, h] with the shunt current

@@ -765,7 +765,10 @@ impl Front {
                 let e = m.saturating_add(span).saturating_mul(n).saturating_sub(1);
                 let e = e.min(k_end);
                 if self.may_toggle_over(c, k, e, -a, a) {
-                    span /= 2;
+                    // A small block that may toggle is usually busy at its start (a filter
+                    // transient or ringing dying away): its first segment is tried with its
+                    // own noise at once, rather than halves of the block first.
+                    span = if span <= 8 { 1 } else { span / 2 };
                 } else {
                     k = e + 1;
                     span = (2 * span).min(MAX_SPAN);
