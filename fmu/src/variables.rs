@@ -262,13 +262,14 @@ mod tests {
     #[test]
     fn the_declared_ranges_are_the_config_rules() {
         // Guards the table against drifting from the rules (the rules are the authority):
-        // one step outside a declared bound must fail DriveConfig::validate; an Integer's
-        // bound itself, and a Real one step inside its bound, must pass. A step is a
-        // millionth for a Real, one for an Integer; a Real's rule may exclude the bound
-        // (FMI has no exclusive bounds: `> 0` is declared as min 0).
+        // one step outside a declared bound must fail DriveConfig::validate, and the bound
+        // itself must pass (FMI bounds are inclusive: a `> 0` rule is declared with the
+        // smallest positive f64, `< 180` with the largest f64 below 180). A step is a
+        // millionth for a Real, one for an Integer (two for the poles, which come in pairs).
         // Bounds that a rule ties to another field (at its default) are only checked outside.
         let tied = [
             ("strategy.lm_speed_max_rpm", "min"), // > strategy.lm_speed_min_rpm
+            ("strategy.lm_speed_min_rpm", "max"), // < strategy.lm_speed_max_rpm
             ("control.start_current_a", "max"),   // <= control.current_limit_a
             ("control.current_limit_a", "min"),   // >= control.start_current_a
             ("motor.mutual_inductance_h", "max"), // < motor.self_inductance_h
@@ -302,17 +303,29 @@ mod tests {
                     let mut c = DriveConfig::default();
                     set(&mut c, x).is_ok() && c.validate().is_ok()
                 };
-                // An Integer's bound is a value of it; a Real's may be exclusive.
-                let edge = if v.kind == Kind::Real {
-                    b - outward * step
-                } else {
-                    b
-                };
                 let outside = b + outward * step;
                 assert!(!ok(outside), "{} = {outside} was accepted", v.name);
                 if !tied.contains(&(v.name, which)) {
-                    assert!(ok(edge), "{} = {edge}, at its {which}, was refused", v.name);
+                    assert!(ok(b), "{} = {b}, its declared {which}, was refused", v.name);
                 }
+            }
+        }
+    }
+
+    #[test]
+    fn every_parameter_has_finite_declared_bounds() {
+        // A parameter without a max accepted values up to 1e300 that drove the model
+        // non-finite; every rule now has a physical upper bound.
+        for v in table() {
+            // Booleans and enumerations are bounded by their type.
+            let bounded_by_type = matches!(v.kind, Kind::Boolean | Kind::Enumeration(_));
+            if matches!(v.role, Role::Parameter { .. }) && !bounded_by_type {
+                let finite = |b: Option<f64>| b.is_some_and(f64::is_finite);
+                assert!(
+                    finite(v.min) && finite(v.max),
+                    "{} has no finite bounds",
+                    v.name
+                );
             }
         }
     }
