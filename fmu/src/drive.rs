@@ -232,6 +232,19 @@ fn engine_of(
     build_plugin(cfg, &lib).map_err(|e| named(e.to_string()))
 }
 
+/// Checks that `path` is a strategy plugin the FMU can run: loaded and built into a drive
+/// with the default parameters, as at initialization (`cargo xtask fmu --plugin` calls it
+/// through the model-description tool before packing the file).
+pub fn check_plugin(path: &Path) -> Result<(), String> {
+    let shown = path.display();
+    let lib = PluginLibrary::load(path).map_err(|e| {
+        format!("plugin {shown}: {e} (rule: a strategy plugin built against strategy-abi)")
+    })?;
+    build_plugin(&DriveConfig::default(), &lib)
+        .map(drop)
+        .map_err(|e| format!("plugin {shown}: {e}"))
+}
+
 fn slot(input: Input) -> usize {
     match input {
         Input::SpeedRef => 0,

@@ -53,9 +53,10 @@ impl EnumType {
         }
     }
 
-    /// Item names, in value order (value = position + 1).
+    /// Item names, in value order (value = position + 1): the library's names with `_`
+    /// for `-`, so that each is a Modelica identifier (`twelve_step_df`, `high_side_chop`).
     pub fn items(self) -> Vec<String> {
-        match self {
+        let names: Vec<String> = match self {
             EnumType::Strategy => strategy_choices()
                 .iter()
                 .map(|&(n, g)| choice_name(n, g))
@@ -66,10 +67,14 @@ impl EnumType {
                 .collect(),
             EnumType::Verdict => Verdict::ALL
                 .iter()
-                .map(|v| v.as_str().replace('-', "_"))
+                .map(|v| v.as_str().to_string())
                 .collect(),
-        }
+        };
+        names.into_iter().map(|n| n.replace('-', "_")).collect()
     }
+
+    /// Every enumeration type of the model.
+    pub const ALL: [EnumType; 3] = [EnumType::Strategy, EnumType::PwmScheme, EnumType::Verdict];
 }
 
 /// A drive input, set by the master between steps.
@@ -331,10 +336,36 @@ mod tests {
     }
 
     #[test]
+    fn enumeration_items_are_modelica_identifiers() {
+        // Modelica IDENT: a letter or `_`, then letters, digits and `_`.
+        for t in EnumType::ALL {
+            let items = t.items();
+            for item in &items {
+                let mut chars = item.chars();
+                let first = chars.next().unwrap();
+                assert!(first.is_ascii_alphabetic() || first == '_', "{item}");
+                assert!(
+                    chars.all(|c| c.is_ascii_alphanumeric() || c == '_'),
+                    "{item}"
+                );
+            }
+            let mut unique = items.clone();
+            unique.sort();
+            unique.dedup();
+            assert_eq!(unique.len(), items.len(), "{t:?}");
+        }
+        assert_eq!(
+            EnumType::PwmScheme.items(),
+            ["high_side_chop", "low_side_chop", "complementary"]
+        );
+    }
+
+    #[test]
     fn every_strategy_and_guard_is_an_item() {
         let items = EnumType::Strategy.items();
         assert_eq!(items.len(), 8);
-        assert_eq!(items[0], "six-step-120-df");
+        assert_eq!(items[0], "six_step_120_df");
+        assert_eq!(items[7], "twelve_step_df");
         for (i, _) in items.iter().enumerate() {
             let mut c = DriveConfig::default();
             set_strategy(&mut c, (i + 1) as f64).unwrap();
