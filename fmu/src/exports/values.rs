@@ -1,7 +1,7 @@
 //! `fmi2Get*` and `fmi2Set*`: variable access by value reference.
 //!
-//! One getter and one setter body, generic over the FMI type ([`FmiType`]); the eight
-//! exported functions are generated from one table ([`access!`]), so every type checks its
+//! One getter and one setter body, generic over the FMI type (`FmiType`); the eight
+//! exported functions are generated from one table (`access!`), so every type checks its
 //! pointers, logs and applies all-or-nothing the same way.
 
 use super::{Component, null_error, slice, slice_mut};
