@@ -25,3 +25,31 @@ fn the_committed_variables_table_is_the_generated_one() {
     }
     assert!(committed.contains("`twelve_step_df`"));
 }
+
+#[test]
+fn the_generation_date_comes_from_source_date_epoch() {
+    let tool = env!("CARGO_BIN_EXE_model-description");
+    let run = |epoch: &str| {
+        std::process::Command::new(tool)
+            .env("SOURCE_DATE_EPOCH", epoch)
+            .output()
+            .unwrap()
+    };
+    let out = run("1700000000");
+    assert!(out.status.success());
+    let xml = String::from_utf8(out.stdout).unwrap();
+    // `date -u -d @1700000000`: 2023-11-14 22:13:20 UTC.
+    assert!(xml.contains("generationDateAndTime=\"2023-11-14T22:13:20Z\""));
+    assert_eq!(
+        run("1700000000").stdout,
+        xml.as_bytes(),
+        "the same bytes again"
+    );
+    let bad = run("yesterday");
+    assert!(!bad.status.success());
+    let err = String::from_utf8_lossy(&bad.stderr);
+    assert!(
+        err.contains("SOURCE_DATE_EPOCH = \"yesterday\"") && err.contains("rule"),
+        "{err}"
+    );
+}

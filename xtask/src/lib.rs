@@ -31,12 +31,14 @@ pub fn package_fmu() -> Result<PathBuf, String> {
 /// `resources/<its file name>` when given. The plugin is checked (a file the FMU's loader
 /// accepts) before anything is written.
 pub fn package_fmu_with(plugin: Option<&Path>, out: &Path) -> Result<PathBuf, String> {
+    // A missing file is reported before the build, an invalid one before packing.
+    let name = plugin.map(plugin_name).transpose()?;
     build_fmu_crate()?;
     let release = target_dir().join("release");
     let tool = release.join("model-description");
     let mut entries: Vec<(String, Vec<u8>)> = Vec::new();
-    if let Some(p) = plugin {
-        entries.push(plugin_entry(&tool, p)?);
+    if let (Some(p), Some(name)) = (plugin, name) {
+        entries.push(plugin_entry(&tool, p, name)?);
     }
     let xml = run(&mut Command::new(&tool))?;
     let so = shared_object(&release.join("libfmu.so"))?;
@@ -102,9 +104,8 @@ fn run(cmd: &mut Command) -> Result<Vec<u8>, String> {
     Ok(out.stdout)
 }
 
-/// The archive entry of a plugin: `resources/<file name>` and its bytes, once the FMU's own
-/// loader has accepted the file (`model-description --check-plugin`).
-fn plugin_entry(tool: &Path, plugin: &Path) -> Result<(String, Vec<u8>), String> {
+/// The file name a plugin is packed under, once the file is known to exist.
+fn plugin_name(plugin: &Path) -> Result<&str, String> {
     let name = plugin
         .file_name()
         .and_then(|n| n.to_str())
@@ -121,6 +122,12 @@ fn plugin_entry(tool: &Path, plugin: &Path) -> Result<(String, Vec<u8>), String>
             plugin.display()
         ));
     }
+    Ok(name)
+}
+
+/// The archive entry of a plugin: `resources/<name>` and its bytes, once the FMU's own
+/// loader has accepted the file (`model-description --check-plugin`).
+fn plugin_entry(tool: &Path, plugin: &Path, name: &str) -> Result<(String, Vec<u8>), String> {
     run(Command::new(tool).arg("--check-plugin").arg(plugin))?;
     let bytes = std::fs::read(plugin).map_err(|e| format!("--plugin {}: {e}", plugin.display()))?;
     Ok((format!("resources/{name}"), bytes))
