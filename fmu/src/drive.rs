@@ -256,13 +256,23 @@ fn engine_of(
 /// with the default parameters, as at initialization (`cargo xtask fmu --plugin` calls it
 /// through the model-description tool before packing the file).
 pub fn check_plugin(path: &Path) -> Result<(), String> {
-    let shown = path.display();
+    let shown = path.display().to_string();
+    // The loader's errors usually name the file already.
+    let named = |e: String| {
+        if e.contains(&shown) {
+            e
+        } else {
+            format!("plugin {shown}: {e}")
+        }
+    };
     let lib = PluginLibrary::load(path).map_err(|e| {
-        format!("plugin {shown}: {e} (rule: a strategy plugin built against strategy-abi)")
+        named(format!(
+            "{e} (rule: a strategy plugin built against strategy-abi)"
+        ))
     })?;
     build_plugin(&DriveConfig::default(), &lib)
         .map(drop)
-        .map_err(|e| format!("plugin {shown}: {e}"))
+        .map_err(|e| named(e.to_string()))
 }
 
 fn slot(input: Input) -> usize {
