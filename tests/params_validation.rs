@@ -1,5 +1,6 @@
 //! Bad parameters are refused with an error naming the field and the rule.
 
+use bldc_drive::DriveConfig;
 use bldc_drive::drive_core::pwm::PwmSchemeKind;
 use bldc_drive::plants::{BackEmfShape, BldcPlant, PlantParams};
 
@@ -115,7 +116,7 @@ fn power_stage_and_sensing_rules() {
     refused(
         |p| p.power_stage.diode_forward_v = -0.7,
         "power_stage.diode_forward_v",
-        ">= 0",
+        "0..=10",
     );
     refused(
         |p| p.power_stage.dead_time_s = 1.0,
@@ -177,4 +178,96 @@ fn toml_round_trip_and_unknown_keys() {
             flat_top_deg: 120.0
         }
     );
+}
+
+/// Upper bounds of parameters that once had none (a switch resistance of 1e300 Ω was
+/// accepted and drove the network non-finite): each limit is accepted, a value a millionth
+/// above it is refused with an error naming the key, the value and the rule.
+#[test]
+fn formerly_unbounded_parameters_have_physical_upper_bounds() {
+    type Field = fn(&mut DriveConfig) -> &mut f64;
+    let cases: [(&str, Field, f64, &str); 11] = [
+        (
+            "power_stage.switch_on_resistance_ohm",
+            |c| &mut c.power_stage.switch_on_resistance_ohm,
+            10.0,
+            "0..=10 Ω",
+        ),
+        (
+            "power_stage.diode_forward_v",
+            |c| &mut c.power_stage.diode_forward_v,
+            10.0,
+            "0..=10 V",
+        ),
+        (
+            "power_stage.diode_resistance_ohm",
+            |c| &mut c.power_stage.diode_resistance_ohm,
+            10.0,
+            "0..=10 Ω",
+        ),
+        (
+            "power_stage.shunt_ohm",
+            |c| &mut c.power_stage.shunt_ohm,
+            10.0,
+            "0..=10 Ω",
+        ),
+        (
+            "sensing.current.amplifier_gain",
+            |c| &mut c.sensing.current.amplifier_gain,
+            1e4,
+            "(0, 1e4]",
+        ),
+        (
+            "sensing.current.amplifier_max_v",
+            |c| &mut c.sensing.current.amplifier_max_v,
+            100.0,
+            "(0, 100] V",
+        ),
+        (
+            "sensing.current.adc_full_scale_v",
+            |c| &mut c.sensing.current.adc_full_scale_v,
+            100.0,
+            "(0, 100] V",
+        ),
+        (
+            "control.speed_kp",
+            |c| &mut c.control.speed_kp,
+            1.0,
+            "0..=1 A/rpm",
+        ),
+        (
+            "control.speed_ki",
+            |c| &mut c.control.speed_ki,
+            1.0,
+            "0..=1 A/(rpm·update)",
+        ),
+        (
+            "control.current_kp",
+            |c| &mut c.control.current_kp,
+            1e6,
+            "0..=1e6 counts/A",
+        ),
+        (
+            "control.current_ki",
+            |c| &mut c.control.current_ki,
+            1e6,
+            "0..=1e6 counts/(A·update)",
+        ),
+    ];
+    for (key, field, limit, rule) in cases {
+        let with = |x: f64| {
+            let mut c = DriveConfig::default();
+            *field(&mut c) = x;
+            c.validate()
+        };
+        with(limit).unwrap_or_else(|e| panic!("{key} = {limit}, its limit, refused: {e}"));
+        let over = limit * (1.0 + 1e-6);
+        for bad in [over, 1e300, f64::INFINITY] {
+            let msg = with(bad).expect_err(key).to_string();
+            assert!(
+                msg.contains(key) && msg.contains(&bad.to_string()) && msg.contains(rule),
+                "`{msg}` must name `{key}`, {bad} and `{rule}`"
+            );
+        }
+    }
 }

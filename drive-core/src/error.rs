@@ -51,6 +51,20 @@ pub fn check_positive(field: &str, value: f64) -> Result<(), ParamError> {
     }
 }
 
+/// Checks that `value` is finite, > 0 and <= `max`, naming `field` and `rule` otherwise.
+pub fn check_positive_max(
+    field: &str,
+    value: f64,
+    max: f64,
+    rule: &'static str,
+) -> Result<(), ParamError> {
+    if value.is_finite() && value > 0.0 && value <= max {
+        Ok(())
+    } else {
+        Err(ParamError::new(field, value, rule))
+    }
+}
+
 /// Checks that `value` is finite and not negative.
 pub fn check_non_negative(field: &str, value: f64) -> Result<(), ParamError> {
     if value.is_finite() && value >= 0.0 {

@@ -30,7 +30,7 @@ result = simulate_fmu(
     stop_time=STOP,
     output_interval=1e-3,
     input=inputs,
-    # Enumeration items count from 1: 8 is twelve-step-df (see modelDescription.xml).
+    # Enumeration items count from 1: 8 is twelve_step_df (see modelDescription.xml).
     start_values={"strategy.name": 8, "motor.resistance_ohm": 2.4},
     output=["speed_rpm", "speed_est_rpm", "i_u", "duty", "in_sync", "verdict"],
 )

@@ -208,6 +208,26 @@ pub fn plugin_path(text: &str, resources: Option<&Path>) -> Result<PathBuf, Stri
     Ok(path)
 }
 
+/// The String values as a serialized state stores them: `strategy.plugin` relative to the
+/// resources folder, so that a state holds no absolute path and restores wherever the FMU
+/// is unpacked. An absolute path inside `resources` becomes relative; one outside it is
+/// refused, naming the value and the rule.
+pub fn portable_texts(texts: &[String], resources: Option<&Path>) -> Result<Vec<String>, String> {
+    let mut out = texts.to_vec();
+    for (t, v) in out.iter_mut().zip(table()) {
+        if !matches!(v.role, Role::Text(Text::StrategyPlugin)) || !Path::new(t).is_absolute() {
+            continue;
+        }
+        let inside = resources.and_then(|r| Path::new(t).strip_prefix(r).ok());
+        *t = inside.and_then(Path::to_str).map(str::to_string).ok_or_else(|| {
+            format!(
+                "strategy.plugin = `{t}` lies outside the FMU's resources folder (rule: a serialized state names its plugin relative to the resources folder, never by an absolute path: pack it with `cargo xtask fmu --plugin PATH` and set its file name)"
+            )
+        })?;
+    }
+    Ok(out)
+}
+
 /// The engine the values describe: the built-in strategy, or the plugin `strategy.plugin`
 /// names, loaded and checked as `drive-bench --plugin` does.
 fn engine_of(
@@ -230,6 +250,29 @@ fn engine_of(
     };
     let lib = PluginLibrary::load(&path).map_err(|e| named(e.to_string()))?;
     build_plugin(cfg, &lib).map_err(|e| named(e.to_string()))
+}
+
+/// Checks that `path` is a strategy plugin the FMU can run: loaded and built into a drive
+/// with the default parameters, as at initialization (`cargo xtask fmu --plugin` calls it
+/// through the model-description tool before packing the file).
+pub fn check_plugin(path: &Path) -> Result<(), String> {
+    let shown = path.display().to_string();
+    // The loader's errors usually name the file already.
+    let named = |e: String| {
+        if e.contains(&shown) {
+            e
+        } else {
+            format!("plugin {shown}: {e}")
+        }
+    };
+    let lib = PluginLibrary::load(path).map_err(|e| {
+        named(format!(
+            "{e} (rule: a strategy plugin built against strategy-abi)"
+        ))
+    })?;
+    build_plugin(&DriveConfig::default(), &lib)
+        .map(drop)
+        .map_err(|e| named(e.to_string()))
 }
 
 fn slot(input: Input) -> usize {

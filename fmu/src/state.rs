@@ -9,7 +9,7 @@
 //! payload is believed, so no replay starts from them. The hash finds damage, it is not a
 //! signature: bytes made on purpose with a matching hash are only checked for consistency.
 
-use crate::drive::{Drive, Event, check_record};
+use crate::drive::{Drive, Event, check_record, portable_texts};
 use crate::model::{Model, Phase};
 use crate::xml::guid;
 use std::path::Path;
@@ -34,18 +34,20 @@ pub struct Snapshot {
     pub model: Model,
 }
 
-/// The bytes of a state.
-pub fn serialize(m: &Model) -> Vec<u8> {
-    let p = payload(m);
+/// The bytes of a state; refused when `strategy.plugin` is an absolute path outside the
+/// resources folder (a state never holds an absolute path: [`portable_texts`]).
+pub fn serialize(m: &Model) -> Result<Vec<u8>, String> {
+    let p = payload(m)?;
     let mut w = Vec::with_capacity(HEADER + p.len());
     w.extend_from_slice(MAGIC);
     put_u64(&mut w, p.len() as u64);
     put_u64(&mut w, fnv1a64(&p));
     w.extend_from_slice(&p);
-    w
+    Ok(w)
 }
 
-fn payload(m: &Model) -> Vec<u8> {
+fn payload(m: &Model) -> Result<Vec<u8>, String> {
+    let resources = m.resources.as_deref();
     let mut w = Vec::new();
     put_bytes(&mut w, guid().as_bytes());
     w.push(phase_code(m.phase));
@@ -53,13 +55,13 @@ fn payload(m: &Model) -> Vec<u8> {
     put_f64(&mut w, m.stop_time.unwrap_or(f64::NAN));
     put_f64(&mut w, m.time);
     put_f64s(&mut w, &m.values);
-    put_texts(&mut w, &m.texts);
+    put_texts(&mut w, &portable_texts(&m.texts, resources)?);
     match &m.drive {
         None => w.push(0),
         Some(d) => {
             w.push(1);
             put_f64s(&mut w, &d.built_from);
-            put_texts(&mut w, &d.built_from_texts);
+            put_texts(&mut w, &portable_texts(&d.built_from_texts, resources)?);
             put_u64(&mut w, d.events.len() as u64);
             for e in &d.events {
                 match *e {
@@ -83,7 +85,7 @@ fn payload(m: &Model) -> Vec<u8> {
             put_u64(&mut w, d.engine.now().0);
         }
     }
-    w
+    Ok(w)
 }
 
 /// The instance a state's bytes describe, or what is wrong with them. A plugin is loaded
@@ -335,6 +337,33 @@ mod tests {
     }
 
     #[test]
+    fn a_serialized_state_names_its_plugin_relative_to_the_resources() {
+        let p = vr_of("strategy.plugin").unwrap();
+        let mut m = Model::new();
+        m.resources = Some(std::path::PathBuf::from("/unpacked/here/resources"));
+        m.enter_initialization().unwrap();
+        m.set_text(p, "/unpacked/here/resources/sub/p.so").unwrap();
+        let bytes = serialize(&m).unwrap();
+        let has = |needle: &[u8]| bytes.windows(needle.len()).any(|w| w == needle);
+        assert!(!has(b"/unpacked"), "no absolute path in the bytes");
+        assert!(has(b"sub/p.so"));
+        // Restored elsewhere, the name resolves in that instance's resources.
+        let copy = deserialize(&bytes, Some(Path::new("/elsewhere/resources"))).unwrap();
+        assert_eq!(copy.texts[p as usize], "sub/p.so");
+        // A relative name is kept as set.
+        m.set_text(p, "p.so").unwrap();
+        let copy = deserialize(&serialize(&m).unwrap(), None).unwrap();
+        assert_eq!(copy.texts[p as usize], "p.so");
+        // An absolute path outside the resources cannot be written relatively: refused.
+        for (outside, resources) in [("/opt/p.so", m.resources.clone()), ("/opt/p.so", None)] {
+            m.resources = resources;
+            m.set_text(p, outside).unwrap();
+            let e = serialize(&m).unwrap_err();
+            assert!(e.contains("`/opt/p.so`") && e.contains("rule"), "{e}");
+        }
+    }
+
+    #[test]
     fn a_deserialized_state_continues_bit_identically() {
         let mut m = Model::new();
         m.enter_initialization().unwrap();
@@ -348,9 +377,9 @@ mod tests {
         // commutates closed loop, with a communication step off the 1 ms grid.
         run(&mut m, 0.9, 0.7e-3);
         assert!(outputs(&mut m)[0] > 1000.0, "running at the save point");
-        let bytes = serialize(&m);
+        let bytes = serialize(&m).unwrap();
         let mut copy = deserialize(&bytes, None).unwrap();
-        assert_eq!(serialize(&copy), bytes);
+        assert_eq!(serialize(&copy).unwrap(), bytes);
         run(&mut m, 1.0, 1e-3);
         run(&mut copy, 1.0, 1e-3);
         assert_eq!(outputs(&mut m), outputs(&mut copy));
@@ -360,7 +389,7 @@ mod tests {
     #[test]
     fn damaged_bytes_are_refused() {
         let m = Model::new();
-        let bytes = serialize(&m);
+        let bytes = serialize(&m).unwrap();
         assert!(deserialize(&bytes, None).is_ok());
         assert!(deserialize(&bytes[..bytes.len() - 1], None).is_err());
         assert!(deserialize(b"nonsense", None).is_err());
@@ -393,7 +422,7 @@ mod tests {
         // A state 0.3 s into a run: replaying it takes far longer than checking a hash, so
         // a thousand refusals in well under the time of a few replays show none started.
         let m = running(0.3);
-        let bytes = serialize(&m);
+        let bytes = serialize(&m).unwrap();
         let t = std::time::Instant::now();
         deserialize(&bytes, None).unwrap();
         let one_replay = t.elapsed();
@@ -423,10 +452,10 @@ mod tests {
     #[test]
     fn the_size_does_not_grow_with_the_steps_taken() {
         let mut m = running(0.01);
-        let early = serialize(&m).len();
+        let early = serialize(&m).unwrap().len();
         run(&mut m, 0.2, 1e-3);
         assert_eq!(
-            serialize(&m).len(),
+            serialize(&m).unwrap().len(),
             early,
             "190 more steps of the same size"
         );
@@ -434,18 +463,18 @@ mod tests {
         m.set(Access::Real, vr_of("speed_ref_rpm").unwrap(), 2000.0)
             .unwrap();
         run(&mut m, 0.25, 0.5e-3);
-        let later = serialize(&m).len();
+        let later = serialize(&m).unwrap().len();
         run(&mut m, 0.4, 0.5e-3);
-        assert_eq!(serialize(&m).len(), later);
+        assert_eq!(serialize(&m).unwrap().len(), later);
         assert!(later - early < 100, "{early} -> {later}");
-        let copy = deserialize(&serialize(&m), None).unwrap();
-        assert_eq!(serialize(&copy), serialize(&m));
+        let copy = deserialize(&serialize(&m).unwrap(), None).unwrap();
+        assert_eq!(serialize(&copy).unwrap(), serialize(&m).unwrap());
     }
 
     #[test]
     fn a_resealed_record_that_disagrees_with_itself_is_refused_before_replay() {
         let m = running(0.05);
-        let bytes = serialize(&m);
+        let bytes = serialize(&m).unwrap();
         let n = bytes.len();
         // The payload ends with: the last run (first, stride, count) and the engine's tick.
         let field = |k: usize| n - 8 * k..n - 8 * (k - 1);
@@ -502,11 +531,11 @@ mod tests {
         }];
         d.replay(d.events.clone(), false).unwrap();
         m.drive = Some(d);
-        let bytes = serialize(&m);
+        let bytes = serialize(&m).unwrap();
         let t = std::time::Instant::now();
         let copy = deserialize(&bytes, None).unwrap();
         assert!(t.elapsed().as_secs_f64() < 0.05, "{:?}", t.elapsed());
-        assert_eq!(serialize(&copy), bytes);
+        assert_eq!(serialize(&copy).unwrap(), bytes);
     }
 
     #[test]

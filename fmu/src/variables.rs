@@ -53,9 +53,10 @@ impl EnumType {
         }
     }
 
-    /// Item names, in value order (value = position + 1).
+    /// Item names, in value order (value = position + 1): the library's names with `_`
+    /// for `-`, so that each is a Modelica identifier (`twelve_step_df`, `high_side_chop`).
     pub fn items(self) -> Vec<String> {
-        match self {
+        let names: Vec<String> = match self {
             EnumType::Strategy => strategy_choices()
                 .iter()
                 .map(|&(n, g)| choice_name(n, g))
@@ -66,10 +67,14 @@ impl EnumType {
                 .collect(),
             EnumType::Verdict => Verdict::ALL
                 .iter()
-                .map(|v| v.as_str().replace('-', "_"))
+                .map(|v| v.as_str().to_string())
                 .collect(),
-        }
+        };
+        names.into_iter().map(|n| n.replace('-', "_")).collect()
     }
+
+    /// Every enumeration type of the model.
+    pub const ALL: [EnumType; 3] = [EnumType::Strategy, EnumType::PwmScheme, EnumType::Verdict];
 }
 
 /// A drive input, set by the master between steps.
@@ -262,13 +267,14 @@ mod tests {
     #[test]
     fn the_declared_ranges_are_the_config_rules() {
         // Guards the table against drifting from the rules (the rules are the authority):
-        // one step outside a declared bound must fail DriveConfig::validate; an Integer's
-        // bound itself, and a Real one step inside its bound, must pass. A step is a
-        // millionth for a Real, one for an Integer; a Real's rule may exclude the bound
-        // (FMI has no exclusive bounds: `> 0` is declared as min 0).
+        // one step outside a declared bound must fail DriveConfig::validate, and the bound
+        // itself must pass (FMI bounds are inclusive: a `> 0` rule is declared with the
+        // smallest positive f64, `< 180` with the largest f64 below 180). A step is a
+        // millionth for a Real, one for an Integer (two for the poles, which come in pairs).
         // Bounds that a rule ties to another field (at its default) are only checked outside.
         let tied = [
             ("strategy.lm_speed_max_rpm", "min"), // > strategy.lm_speed_min_rpm
+            ("strategy.lm_speed_min_rpm", "max"), // < strategy.lm_speed_max_rpm
             ("control.start_current_a", "max"),   // <= control.current_limit_a
             ("control.current_limit_a", "min"),   // >= control.start_current_a
             ("motor.mutual_inductance_h", "max"), // < motor.self_inductance_h
@@ -302,26 +308,64 @@ mod tests {
                     let mut c = DriveConfig::default();
                     set(&mut c, x).is_ok() && c.validate().is_ok()
                 };
-                // An Integer's bound is a value of it; a Real's may be exclusive.
-                let edge = if v.kind == Kind::Real {
-                    b - outward * step
-                } else {
-                    b
-                };
                 let outside = b + outward * step;
                 assert!(!ok(outside), "{} = {outside} was accepted", v.name);
                 if !tied.contains(&(v.name, which)) {
-                    assert!(ok(edge), "{} = {edge}, at its {which}, was refused", v.name);
+                    assert!(ok(b), "{} = {b}, its declared {which}, was refused", v.name);
                 }
             }
         }
     }
 
     #[test]
+    fn every_parameter_has_finite_declared_bounds() {
+        // A parameter without a max accepted values up to 1e300 that drove the model
+        // non-finite; every rule now has a physical upper bound.
+        for v in table() {
+            // Booleans and enumerations are bounded by their type.
+            let bounded_by_type = matches!(v.kind, Kind::Boolean | Kind::Enumeration(_));
+            if matches!(v.role, Role::Parameter { .. }) && !bounded_by_type {
+                let finite = |b: Option<f64>| b.is_some_and(f64::is_finite);
+                assert!(
+                    finite(v.min) && finite(v.max),
+                    "{} has no finite bounds",
+                    v.name
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn enumeration_items_are_modelica_identifiers() {
+        // Modelica IDENT: a letter or `_`, then letters, digits and `_`.
+        for t in EnumType::ALL {
+            let items = t.items();
+            for item in &items {
+                let mut chars = item.chars();
+                let first = chars.next().unwrap();
+                assert!(first.is_ascii_alphabetic() || first == '_', "{item}");
+                assert!(
+                    chars.all(|c| c.is_ascii_alphanumeric() || c == '_'),
+                    "{item}"
+                );
+            }
+            let mut unique = items.clone();
+            unique.sort();
+            unique.dedup();
+            assert_eq!(unique.len(), items.len(), "{t:?}");
+        }
+        assert_eq!(
+            EnumType::PwmScheme.items(),
+            ["high_side_chop", "low_side_chop", "complementary"]
+        );
+    }
+
+    #[test]
     fn every_strategy_and_guard_is_an_item() {
         let items = EnumType::Strategy.items();
         assert_eq!(items.len(), 8);
-        assert_eq!(items[0], "six-step-120-df");
+        assert_eq!(items[0], "six_step_120_df");
+        assert_eq!(items[7], "twelve_step_df");
         for (i, _) in items.iter().enumerate() {
             let mut c = DriveConfig::default();
             set_strategy(&mut c, (i + 1) as f64).unwrap();

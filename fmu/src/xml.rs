@@ -4,7 +4,7 @@
 //! values and ranges), so the binary and the XML always agree, and any change of a variable
 //! or a default gives a new GUID.
 
-use crate::variables::{EnumType, Kind, Role, Variable, table};
+use crate::variables::{EnumType, Kind, Output, Role, Variable, table};
 use std::fmt::Write;
 use std::sync::OnceLock;
 
@@ -54,17 +54,23 @@ fn fnv1a(bytes: &[u8], seed: u64) -> u64 {
     })
 }
 
-/// The complete model description.
-pub fn model_description() -> String {
+/// The complete model description, generated at `generated` (seconds since 1970 UTC, see
+/// [`generation_time`]).
+pub fn model_description(generated: u64) -> String {
     let mut x = String::new();
     x.push_str("<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n");
     let _ = writeln!(
         x,
         "<fmiModelDescription fmiVersion=\"2.0\" modelName=\"{MODEL_NAME}\" guid=\"{}\"\n  \
          description=\"Sensorless BLDC drive: the published spindle motor on a six-switch bridge with diodes and sensing, driven by the twelve-step sensorless chip\"\n  \
-         version=\"{}\" generationTool=\"bldc-drive xtask\" variableNamingConvention=\"structured\" numberOfEventIndicators=\"0\">",
+         author=\"{}\" license=\"{}\" version=\"{}\"\n  \
+         generationTool=\"bldc-drive xtask\" generationDateAndTime=\"{}\"\n  \
+         variableNamingConvention=\"structured\" numberOfEventIndicators=\"0\">",
         guid(),
+        esc(&env!("CARGO_PKG_AUTHORS").replace(':', ", ")),
+        esc(env!("CARGO_PKG_LICENSE")),
         env!("CARGO_PKG_VERSION"),
+        utc_date_time(generated),
     );
     let _ = writeln!(
         x,
@@ -90,6 +96,47 @@ pub fn model_description() -> String {
     x
 }
 
+/// When the description is generated: `SOURCE_DATE_EPOCH` (seconds since 1970 UTC) when
+/// set, so that a reproducible build writes the same bytes; else now.
+pub fn generation_time() -> Result<u64, String> {
+    match std::env::var("SOURCE_DATE_EPOCH") {
+        Ok(s) => s.trim().parse().map_err(|e| {
+            format!(
+                "SOURCE_DATE_EPOCH = {s:?} ({e}) (rule: whole seconds since 1970-01-01 UTC, >= 0)"
+            )
+        }),
+        Err(std::env::VarError::NotPresent) => std::time::SystemTime::now()
+            .duration_since(std::time::UNIX_EPOCH)
+            .map(|d| d.as_secs())
+            .map_err(|e| format!("the system clock is before 1970 ({e})")),
+        Err(e) => Err(format!(
+            "SOURCE_DATE_EPOCH: {e} (rule: whole seconds since 1970-01-01 UTC)"
+        )),
+    }
+}
+
+/// `secs` since 1970 as an xs:dateTime in UTC, e.g. `2023-11-14T22:13:20Z`.
+fn utc_date_time(secs: u64) -> String {
+    let (days, rem) = (secs / 86_400, secs % 86_400);
+    // Civil date from days since 1970-01-01 (the proleptic Gregorian calendar, in 400-year
+    // eras of 146 097 days, with years starting in March so leap days come last).
+    let z = days + 719_468;
+    let era = z / 146_097;
+    let doe = z % 146_097;
+    let yoe = (doe - doe / 1460 + doe / 36_524 - doe / 146_096) / 365;
+    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
+    let mp = (5 * doy + 2) / 153;
+    let day = doy - (153 * mp + 2) / 5 + 1;
+    let month = if mp < 10 { mp + 3 } else { mp - 9 };
+    let year = yoe + era * 400 + u64::from(month <= 2);
+    format!(
+        "{year:04}-{month:02}-{day:02}T{:02}:{:02}:{:02}Z",
+        rem / 3600,
+        rem / 60 % 60,
+        rem % 60
+    )
+}
+
 /// Units, types and variables: the part of the description the GUID is taken from.
 fn table_text() -> String {
     units_and_types() + &variables_text()
@@ -109,7 +156,7 @@ fn units_and_types() -> String {
         let _ = writeln!(x, "    <Unit name=\"{}\">{}</Unit>", esc(u), base_unit(u));
     }
     x.push_str("  </UnitDefinitions>\n  <TypeDefinitions>\n");
-    for t in [EnumType::Strategy, EnumType::PwmScheme, EnumType::Verdict] {
+    for t in EnumType::ALL {
         let _ = writeln!(
             x,
             "    <SimpleType name=\"{}\">\n      <Enumeration>",
@@ -154,11 +201,7 @@ fn base_unit(unit: &str) -> &'static str {
 fn variables_text() -> String {
     let mut x = String::from("  <ModelVariables>\n");
     for (vr, v) in table().iter().enumerate() {
-        let (causality, variability, initial) = match v.role {
-            Role::Parameter { .. } | Role::Text(_) => ("parameter", "fixed", Some("exact")),
-            Role::Input(_) => ("input", discrete_unless_real(v), None),
-            Role::Output(_) => ("output", discrete_unless_real(v), Some("calculated")),
-        };
+        let (causality, variability, initial) = causality(v);
         let _ = write!(
             x,
             "    <ScalarVariable name=\"{}\" valueReference=\"{vr}\" description=\"{}\" causality=\"{causality}\" variability=\"{variability}\"",
@@ -172,6 +215,19 @@ fn variables_text() -> String {
     }
     x.push_str("  </ModelVariables>\n");
     x
+}
+
+/// `causality`, `variability` and `initial` of a variable.
+pub(crate) fn causality(v: &Variable) -> (&'static str, &'static str, Option<&'static str>) {
+    match v.role {
+        Role::Parameter { .. } | Role::Text(_) => ("parameter", "fixed", Some("exact")),
+        Role::Input(_) => ("input", discrete_unless_real(v), None),
+        // The chip's measurement and duty change only at its updates: piecewise constant.
+        Role::Output(Output::SpeedEstRpm | Output::Duty) => {
+            ("output", "discrete", Some("calculated"))
+        }
+        Role::Output(_) => ("output", discrete_unless_real(v), Some("calculated")),
+    }
 }
 
 fn discrete_unless_real(v: &Variable) -> &'static str {
@@ -261,13 +317,13 @@ mod tests {
         let g = guid();
         assert_eq!(g.len(), 38);
         assert!(g.starts_with('{') && g.ends_with('}'));
-        assert!(model_description().contains(&format!("guid=\"{g}\"")));
+        assert!(model_description(0).contains(&format!("guid=\"{g}\"")));
         assert_ne!(fnv1a(b"a", 1), fnv1a(b"b", 1));
     }
 
     #[test]
     fn every_variable_appears_once_with_its_start_value() {
-        let x = model_description();
+        let x = model_description(0);
         for (vr, v) in table().iter().enumerate() {
             let tag = format!("name=\"{}\" valueReference=\"{vr}\"", esc(v.name));
             assert_eq!(x.matches(&tag).count(), 1, "{}", v.name);
@@ -305,5 +361,28 @@ mod tests {
             "name=\"strategy.plugin\" valueReference=\"{plugin}\""
         )));
         assert!(x.contains("<String start=\"\"/>"));
+        // Piecewise-constant outputs are discrete, the plant's continuous.
+        for (name, variability) in [
+            ("duty", "discrete"),
+            ("speed_est_rpm", "discrete"),
+            ("speed_rpm", "continuous"),
+        ] {
+            let v = &table()[crate::variables::vr_of(name).unwrap() as usize];
+            assert_eq!(causality(v).1, variability, "{name}");
+        }
+    }
+
+    #[test]
+    fn generation_date_is_utc_and_deterministic() {
+        // Dates checked against `date -u -d @N`.
+        assert_eq!(utc_date_time(0), "1970-01-01T00:00:00Z");
+        assert_eq!(utc_date_time(951_782_400), "2000-02-29T00:00:00Z");
+        assert_eq!(utc_date_time(1_700_000_000), "2023-11-14T22:13:20Z");
+        assert_eq!(utc_date_time(4_107_542_399), "2100-02-28T23:59:59Z");
+        let x = model_description(1_700_000_000);
+        assert!(x.contains("generationDateAndTime=\"2023-11-14T22:13:20Z\""));
+        assert!(x.contains("license=\"MIT OR Apache-2.0\""));
+        assert!(x.contains("author=\"bldc-drive developers\""));
+        assert_eq!(x, model_description(1_700_000_000));
     }
 }

@@ -1,6 +1,7 @@
 """fmpy-driven strategy plugins: `strategy.plugin` set by fmi2SetString (absolute, or
 relative to the FMU's resources folder) runs the example plugin, which matches the
-built-in twelve-step-df it wraps, also after a serialized state is restored; bad files,
+built-in twelve-step-df it wraps, also after a serialized state is restored (the state
+names the plugin relative to the resources; an absolute path outside them is refused); bad files,
 a misbehaving plugin and bad string calls give fmi2Error with a logged message, never a
 crash."""
 
@@ -91,7 +92,8 @@ def runs_the_example(md, unzipdir):
     check(builtin[0] > 2000 and 1 <= builtin[-1] <= 12,
           f"built-in runs closed loop ({builtin[0]:.0f} rpm, state {builtin[-1]})")
 
-    for path in (EXAMPLE_PLUGIN, "example.so"):
+    inside = os.path.join(unzipdir, "resources", "example.so")
+    for path in (EXAMPLE_PLUGIN, "example.so", inside):
         d = start(md, unzipdir, path)
         # six-step-120-df: ignored when a plugin is named, so a match proves the plugin ran.
         d.fmu.setInteger([d.vr["strategy.name"]], [1])
@@ -100,20 +102,33 @@ def runs_the_example(md, unzipdir):
         d.step_to(SAVE_S)
         check(outputs(d) == at_save, f"plugin {path!r} matches the built-in at {SAVE_S} s")
         state = d.fmu.getFMUstate()
-        data = d.fmu.serializeFMUstate(state)
+        if path == EXAMPLE_PLUGIN:
+            # Outside the resources: a serialized state would have to hold an absolute path.
+            d.log.take()
+            size = ctypes.c_size_t()
+            status = d.raw("fmi2SerializedFMUstateSize", state, ctypes.byref(size))
+            ok, e = errors_logged(d.log, "outside the FMU's resources folder")
+            check(status == fmi2Error and ok, f"absolute plugin path: no serialized state ({e})")
+            data = None
+        else:
+            data = d.fmu.serializeFMUstate(state)
+            check(inside.encode() not in bytes(data) and b"example.so" in bytes(data),
+                  f"the serialized state names {path!r} relative to the resources")
         d.step_to(END_S)
         check(outputs(d) == builtin, f"plugin {path!r} matches the built-in at {END_S} s")
 
-        # Deserialized (the plugin loaded again) in another instance: continues bit-identically.
-        e = Drive(md, unzipdir, name="restored")
-        s2 = e.fmu.deSerializeFMUstate(data)
-        e.fmu.setFMUstate(s2)
-        e.t = SAVE_S
-        e.step_to(END_S)
-        check(outputs(e) == builtin, f"deserialized plugin state ({len(data)} bytes) replays")
-        check(get_plugin(e) == (fmi2OK, path), "the state carries strategy.plugin")
-        e.fmu.freeFMUstate(s2)
-        finish(e)
+        if data is not None:
+            # Deserialized (the plugin loaded again) in another instance: continues
+            # bit-identically, with the name relative to the resources.
+            e = Drive(md, unzipdir, name="restored")
+            s2 = e.fmu.deSerializeFMUstate(data)
+            e.fmu.setFMUstate(s2)
+            e.t = SAVE_S
+            e.step_to(END_S)
+            check(outputs(e) == builtin, f"deserialized plugin state ({len(data)} bytes) replays")
+            check(get_plugin(e) == (fmi2OK, "example.so"), "the state carries strategy.plugin")
+            e.fmu.freeFMUstate(s2)
+            finish(e)
         d.fmu.freeFMUstate(state)
         finish(d)
 

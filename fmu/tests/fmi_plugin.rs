@@ -1,12 +1,16 @@
 //! The packaged FMU, imported through the `fmi` crate, runs the example strategy plugin
-//! named by `strategy.plugin`: it reproduces the built-in twelve-step-df it re-implements
-//! bit for bit, a state taken while it runs replays bit-identically after serialization,
-//! and a plugin that cannot be loaded is refused with fmi2Error at initialization.
+//! packed into its resources (`cargo xtask fmu --plugin`) and named relatively by
+//! `strategy.plugin`: it reproduces the built-in twelve-step-df it re-implements bit for
+//! bit, a state taken while it runs replays bit-identically after serialization, and a
+//! plugin that cannot be loaded is refused: by xtask before packing, with fmi2Error at
+//! initialization.
 
 use fmi::fmi2::import::Fmi2Import;
 use fmi::fmi2::instance::{CoSimulation, Common, InstanceCS};
-use fmi::traits::{FmiInstance, FmiStatus};
+use fmi::traits::{FmiImport, FmiInstance, FmiStatus};
 use std::ffi::CString;
+use std::path::PathBuf;
+use std::sync::OnceLock;
 
 mod common;
 
@@ -20,6 +24,25 @@ const STEPS: u32 = 3000; // 1.5 s
 // 0.9 s: past the alignment (0.75 s), running closed loop, before the load step.
 const SAVE_AT_STEP: u32 = 1800;
 const OUTPUTS: [&str; 5] = ["speed_rpm", "i_u", "duty", "state", "speed_est_rpm"];
+
+/// The FMU with the example plugin packed as `resources/libexample_plugin.so` (its own
+/// file, so that the plain FMU other tests import is left alone), imported.
+fn import_with_plugin() -> Fmi2Import {
+    static FMU: OnceLock<Result<PathBuf, String>> = OnceLock::new();
+    let path = FMU.get_or_init(|| {
+        let out = xtask::target_dir()
+            .join("fmu")
+            .join("BldcDrive-example-plugin.fmu");
+        xtask::package_fmu_with(Some(&plugins::example()), &out)
+    });
+    let path = path
+        .as_ref()
+        .unwrap_or_else(|e| panic!("packaging the FMU with the plugin failed: {e}"));
+    fmi::import::from_path(path).expect("the fmi crate imports the FMU")
+}
+
+/// The name `strategy.plugin` gives the packed plugin: relative to the resources.
+const PACKED: &str = "libexample_plugin.so";
 
 fn text(s: &str) -> CString {
     CString::new(s).expect("no NUL in the path")
@@ -76,9 +99,8 @@ fn run(import: &Fmi2Import, inst: &mut InstanceCS, from: u32) -> Vec<[f64; 5]> {
 
 #[test]
 fn the_example_plugin_in_the_fmu_reproduces_the_builtin_strategy_bit_for_bit() {
-    let import = import();
-    let lib = plugins::example();
-    let lib = lib.to_str().expect("a UTF-8 path");
+    let import = import_with_plugin();
+    let lib = PACKED;
 
     // The default strategy.name is twelve-step-df, the strategy the example wraps.
     let mut builtin = start(&import, "builtin", None);
@@ -104,6 +126,15 @@ fn the_example_plugin_in_the_fmu_reproduces_the_builtin_strategy_bit_for_bit() {
     );
     let state = again.get_fmu_state().unwrap();
     let bytes = again.serialize_fmu_state(&state).unwrap();
+    let unpacked = import
+        .archive_path()
+        .to_str()
+        .expect("a UTF-8 path")
+        .as_bytes();
+    assert!(
+        !bytes.windows(unpacked.len()).any(|w| w == unpacked),
+        "no absolute path in the serialized state"
+    );
     traced.extend(run(&import, &mut again, SAVE_AT_STEP));
 
     assert_eq!(traced.len(), reference.len());
@@ -167,4 +198,28 @@ fn a_plugin_that_cannot_be_loaded_fails_initialization() {
         inst.do_step(0.0, H, true).unwrap();
     }
     std::fs::remove_file(&not_a_library).unwrap();
+}
+
+#[test]
+fn xtask_refuses_a_missing_or_invalid_plugin_before_packing() {
+    let dir = std::env::temp_dir().join(format!("fmu-xtask-plugin-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let not_a_library = dir.join("notes.so");
+    std::fs::write(&not_a_library, "text, not a library").unwrap();
+    let out = dir.join("Never.fmu");
+    for (plugin, needle) in [
+        (dir.join("missing.so"), "no such file"),
+        (
+            not_a_library,
+            "rule: a strategy plugin built against strategy-abi",
+        ),
+    ] {
+        let e = xtask::package_fmu_with(Some(&plugin), &out).unwrap_err();
+        assert!(
+            e.contains(&plugin.display().to_string()) && e.contains(needle),
+            "{e}"
+        );
+        assert!(!out.exists(), "nothing written for {}", plugin.display());
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
 }

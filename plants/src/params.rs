@@ -3,7 +3,7 @@
 //! Defaults are the published motor (SPEC §1) plus the values this project chose where the
 //! source is silent or unreliable; each such choice is justified on its field.
 
-use drive_core::error::{ParamError, check_non_negative, check_positive, check_range};
+use drive_core::error::{ParamError, check_non_negative, check_positive_max, check_range};
 use drive_core::pwm::PwmSchemeKind;
 use drive_core::{Abc, Ticks};
 use serde::{Deserialize, Serialize};
@@ -209,14 +209,14 @@ pub struct PowerStageParams {
     /// which covers the chip's 14-bit speed command, while the current loop keeps the
     /// winding current inside the 0–0.5 A sensing range.
     pub supply_v: f64,
-    /// On-resistance of each switch \[Ω\]. Default 0.2. Rule: ≥ 0.
+    /// On-resistance of each switch \[Ω\]. Default 0.2. Rule: 0..=10.
     pub switch_on_resistance_ohm: f64,
-    /// Diode forward voltage \[V\]. Default 0.7. Rule: ≥ 0.
+    /// Diode forward voltage \[V\]. Default 0.7. Rule: 0..=10.
     pub diode_forward_v: f64,
-    /// Diode slope resistance \[Ω\]. Default 0.05. Rule: ≥ 0.
+    /// Diode slope resistance \[Ω\]. Default 0.05. Rule: 0..=10.
     pub diode_resistance_ohm: f64,
     /// Current-sense shunt between the low-side switches and ground \[Ω\]. Default 0.25.
-    /// Rule: ≥ 0. It is part of the power circuit (its drop lifts the low rail).
+    /// Rule: 0..=10. It is part of the power circuit (its drop lifts the low rail).
     pub shunt_ohm: f64,
     /// Dead time inserted before every switch turn-on \[s\]. Default 0 (the chip chops one
     /// side only). Rule: 0..=10 µs; rounded to whole 20 ns ticks.
@@ -252,16 +252,37 @@ impl PowerStageParams {
             1000.0,
             "must be > 0 and <= 1000 V",
         )?;
-        check_non_negative(
+        // Upper bounds: far beyond any real part, low enough that the network stays finite.
+        // A power switch or diode above 10 Ω, a diode drop above 10 V (SiC body diodes
+        // reach ≈ 4 V), or a sense shunt above 10 Ω (milliohms to ≈ 1 Ω) is not a drive.
+        check_range(
             "power_stage.switch_on_resistance_ohm",
             self.switch_on_resistance_ohm,
+            0.0,
+            10.0,
+            "must be in 0..=10 Ω (a switch above 10 Ω is no power switch)",
         )?;
-        check_non_negative("power_stage.diode_forward_v", self.diode_forward_v)?;
-        check_non_negative(
+        check_range(
+            "power_stage.diode_forward_v",
+            self.diode_forward_v,
+            0.0,
+            10.0,
+            "must be in 0..=10 V (silicon ≈ 0.7 V, SiC body diodes ≈ 4 V)",
+        )?;
+        check_range(
             "power_stage.diode_resistance_ohm",
             self.diode_resistance_ohm,
+            0.0,
+            10.0,
+            "must be in 0..=10 Ω (a diode above 10 Ω is no power diode)",
         )?;
-        check_non_negative("power_stage.shunt_ohm", self.shunt_ohm)?;
+        check_range(
+            "power_stage.shunt_ohm",
+            self.shunt_ohm,
+            0.0,
+            10.0,
+            "must be in 0..=10 Ω (sense shunts are milliohms to about 1 Ω)",
+        )?;
         check_range(
             "power_stage.dead_time_s",
             self.dead_time_s,
@@ -289,15 +310,15 @@ impl PowerStageParams {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct CurrentSenseParams {
-    /// Amplifier gain [V/V]. Default 80 (0.125 V → 10 V). Rule: > 0.
+    /// Amplifier gain [V/V]. Default 80 (0.125 V → 10 V). Rule: 0 < x ≤ 1e4.
     pub amplifier_gain: f64,
-    /// Amplifier output swing: the output is clipped to 0..this \[V\]. Default 10. Rule: > 0.
+    /// Amplifier output swing: the output is clipped to 0..this \[V\]. Default 10. Rule: 0 < x ≤ 100.
     pub amplifier_max_v: f64,
     /// First-order low-pass cut-off \[Hz\]. Default 25 000. Rule: 10 Hz ..= 10 MHz.
     pub filter_cutoff_hz: f64,
     /// ADC resolution \[bits\]. Default 12. Rule: 1..=16.
     pub adc_bits: u32,
-    /// ADC full scale \[V\]. Default 10. Rule: > 0.
+    /// ADC full scale \[V\]. Default 10. Rule: 0 < x ≤ 100.
     pub adc_full_scale_v: f64,
     /// Conversion time \[s\]: samples are taken back to back at this period and each result
     /// becomes readable one period after its sample. Default 20 µs. Rule: 0.1 µs ..= 1 s.
@@ -320,8 +341,20 @@ impl Default for CurrentSenseParams {
 impl CurrentSenseParams {
     /// Checks every rule.
     pub fn validate(&self) -> Result<(), ParamError> {
-        check_positive("sensing.current.amplifier_gain", self.amplifier_gain)?;
-        check_positive("sensing.current.amplifier_max_v", self.amplifier_max_v)?;
+        // Upper bounds: decades beyond real shunt amplifiers (gains of 10..200 V/V,
+        // instrumentation amplifiers up to 1e4; rails up to a few tens of volts).
+        check_positive_max(
+            "sensing.current.amplifier_gain",
+            self.amplifier_gain,
+            1e4,
+            "must be in (0, 1e4] V/V",
+        )?;
+        check_positive_max(
+            "sensing.current.amplifier_max_v",
+            self.amplifier_max_v,
+            100.0,
+            "must be in (0, 100] V (an amplifier's output swing)",
+        )?;
         check_range(
             "sensing.current.filter_cutoff_hz",
             self.filter_cutoff_hz,
@@ -336,7 +369,12 @@ impl CurrentSenseParams {
                 "must be 1..=16",
             ));
         }
-        check_positive("sensing.current.adc_full_scale_v", self.adc_full_scale_v)?;
+        check_positive_max(
+            "sensing.current.adc_full_scale_v",
+            self.adc_full_scale_v,
+            100.0,
+            "must be in (0, 100] V (an ADC's input range)",
+        )?;
         check_range(
             "sensing.current.adc_conversion_s",
             self.adc_conversion_s,

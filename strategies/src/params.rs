@@ -5,7 +5,7 @@
 //! unit, default and rule; [`ControlParams::validate`] and [`StrategyParams::validate`] name
 //! the first field that breaks a rule.
 
-use drive_core::error::{ParamError, check_non_negative, check_range};
+use drive_core::error::{ParamError, check_range};
 use serde::{Deserialize, Serialize};
 use std::fmt;
 use std::str::FromStr;
@@ -30,15 +30,15 @@ pub const SPEED_CMD_MAX_RPM: f64 = 16_383.0;
 pub struct ControlParams {
     /// Speed command ωc \[rpm\]. Default 3000. Rule: 0..=16383 (14-bit register).
     pub speed_ref_rpm: f64,
-    /// Speed PI proportional gain [A/rpm]. Default 5.0e-5. Rule: ≥ 0.
+    /// Speed PI proportional gain [A/rpm]. Default 5.0e-5. Rule: 0..=1.
     pub speed_kp: f64,
-    /// Speed PI integral gain per PI update [A/(rpm·update)]. Default 1.0e-6. Rule: ≥ 0.
+    /// Speed PI integral gain per PI update [A/(rpm·update)]. Default 1.0e-6. Rule: 0..=1.
     /// The continuous-time equivalent is this divided by the PI period (5.24 ms).
     pub speed_ki: f64,
-    /// Current PI proportional gain [carrier counts/A]. Default 300. Rule: ≥ 0.
+    /// Current PI proportional gain [carrier counts/A]. Default 300. Rule: 0..=1e6.
     pub current_kp: f64,
     /// Current PI integral gain per PI update [carrier counts/(A·update)]. Default 600.
-    /// Rule: ≥ 0.
+    /// Rule: 0..=1e6.
     pub current_ki: f64,
     /// Current command limit: output and integrator saturation of the speed PI \[A\].
     /// Default 0.25. It must stay below the current sense's full scale (0.5 A with the
@@ -192,10 +192,37 @@ impl ControlParams {
             SPEED_CMD_MAX_RPM,
             "must be in 0..=16383 rpm (14-bit speed register)",
         )?;
-        check_non_negative("control.speed_kp", self.speed_kp)?;
-        check_non_negative("control.speed_ki", self.speed_ki)?;
-        check_non_negative("control.current_kp", self.current_kp)?;
-        check_non_negative("control.current_ki", self.current_ki)?;
+        // Gain bounds: 3 to 6 decades above the defaults, where one update's action on the
+        // smallest error the loop can see already spans its whole output (10 A; 2000
+        // carrier counts), so a larger gain only feeds non-finite arithmetic.
+        check_range(
+            "control.speed_kp",
+            self.speed_kp,
+            0.0,
+            1.0,
+            "must be in 0..=1 A/rpm (1 rpm of error commands 1 A)",
+        )?;
+        check_range(
+            "control.speed_ki",
+            self.speed_ki,
+            0.0,
+            1.0,
+            "must be in 0..=1 A/(rpm·update)",
+        )?;
+        check_range(
+            "control.current_kp",
+            self.current_kp,
+            0.0,
+            1e6,
+            "must be in 0..=1e6 counts/A (1 mA of error commands half the carrier)",
+        )?;
+        check_range(
+            "control.current_ki",
+            self.current_ki,
+            0.0,
+            1e6,
+            "must be in 0..=1e6 counts/(A·update)",
+        )?;
         if !(self.current_limit_a > 0.0 && self.current_limit_a <= 10.0) {
             return Err(ParamError::new(
                 "control.current_limit_a",

@@ -1,10 +1,26 @@
-//! `cargo xtask <task>`: `fmu` packages target/fmu/BldcDrive.fmu.
+//! `cargo xtask <task>`: `fmu [--plugin PATH]` packages target/fmu/BldcDrive.fmu (with a
+//! strategy plugin in its resources); `fmu-docs` writes docs/fmu-variables.md.
+
+use std::path::PathBuf;
 
 fn main() {
-    let task = std::env::args().nth(1).unwrap_or_default();
-    let result = match task.as_str() {
-        "fmu" => xtask::package_fmu().map(|p| println!("{}", p.display())),
-        _ => Err(format!("unknown task `{task}` (tasks: fmu)")),
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let result = match args.iter().map(String::as_str).collect::<Vec<_>>()[..] {
+        ["fmu"] => xtask::package_fmu().map(|p| println!("{}", p.display())),
+        ["fmu", "--plugin", path] => {
+            let out = xtask::target_dir().join("fmu").join("BldcDrive.fmu");
+            let plugin = PathBuf::from(path);
+            xtask::package_fmu_with(Some(&plugin), &out).map(|p| {
+                println!("{}", p.display());
+                let name = plugin.file_name().unwrap_or_default().to_string_lossy();
+                eprintln!("note: select it with strategy.plugin = \"{name}\" (relative to the FMU's resources)");
+            })
+        }
+        ["fmu-docs"] => xtask::write_fmu_docs().map(|p| println!("{}", p.display())),
+        _ => Err(format!(
+            "unknown arguments `{}` (tasks: fmu, fmu --plugin PATH, fmu-docs)",
+            args.join(" ")
+        )),
     };
     if let Err(e) = result {
         eprintln!("error: {e}");

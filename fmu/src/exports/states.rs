@@ -150,8 +150,12 @@ pub unsafe extern "C" fn fmi2SerializedFMUstateSize(
                     "FMUstate is not a live state of this instance (rule: a state from fmi2GetFMUstate or fmi2DeSerializeFMUstate on this instance, not yet freed)".into(),
                 );
             }
-            // SAFETY: live; `size` non-null and writable.
-            unsafe { *size = serialize(&snapshot(state).model).len() };
+            // SAFETY: live.
+            match serialize(&unsafe { snapshot(state) }.model) {
+                // SAFETY: `size` non-null and writable.
+                Ok(data) => unsafe { *size = data.len() },
+                Err(e) => return state_error(inst, CALL, e),
+            }
             OK
         })
     })
@@ -179,7 +183,10 @@ pub unsafe extern "C" fn fmi2SerializeFMUstate(
                 );
             }
             // SAFETY: live.
-            let data = serialize(&unsafe { snapshot(state) }.model);
+            let data = match serialize(&unsafe { snapshot(state) }.model) {
+                Ok(d) => d,
+                Err(e) => return state_error(inst, CALL, e),
+            };
             if data.len() != size {
                 let msg = format!(
                     "size = {size} (rule: must be {}, from fmi2SerializedFMUstateSize)",
