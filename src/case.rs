@@ -79,7 +79,10 @@ impl Case {
     /// value of the wrong type, is an error naming the key, the value and the rule.
     pub fn from_value(v: serde_json::Value) -> Result<Self, CaseError> {
         let serde_json::Value::Object(map) = v else {
-            return Err(CaseError(format!("case = {v} (rule: an object of the keys {})", KEYS.join(", "))));
+            return Err(CaseError(format!(
+                "case = {v} (rule: an object of the keys {})",
+                KEYS.join(", ")
+            )));
         };
         let mut c = Case::default();
         for (key, x) in map {
@@ -87,12 +90,17 @@ impl Case {
                 continue; // as if not given, like Python's None
             }
             let number = || {
-                x.as_f64().ok_or_else(|| CaseError(format!("`{key}` = {x} (rule: a number)")))
+                x.as_f64()
+                    .ok_or_else(|| CaseError(format!("`{key}` = {x} (rule: a number)")))
             };
             match key.as_str() {
                 "strategy" => match &x {
                     serde_json::Value::String(s) => c.strategy = Some(s.clone()),
-                    _ => return Err(CaseError(format!("`strategy` = {x} (rule: a strategy name, a string)"))),
+                    _ => {
+                        return Err(CaseError(format!(
+                            "`strategy` = {x} (rule: a strategy name, a string)"
+                        )));
+                    }
                 },
                 "speed_rpm" => c.speed_rpm = Some(number()?),
                 "duration_s" => c.duration_s = Some(number()?),
@@ -186,7 +194,8 @@ impl Case {
         match &self.config {
             None => Ok(DriveConfig::default()),
             Some(serde_json::Value::String(p)) => {
-                let text = std::fs::read_to_string(p).map_err(|e| CaseError(format!("{p}: {e}")))?;
+                let text =
+                    std::fs::read_to_string(p).map_err(|e| CaseError(format!("{p}: {e}")))?;
                 DriveConfig::from_toml(&text).map_err(|e| CaseError(format!("{p}: {e}")))
             }
             Some(v @ serde_json::Value::Object(_)) => {
@@ -279,7 +288,8 @@ mod tests {
     #[test]
     fn a_plain_case_is_a_hold_with_a_coulomb_load() {
         let c = Case::from_value(json!({"strategy": "six-step-120", "speed_rpm": 2000.0,
-            "duration_s": 1.5, "load_nm": 1e-4, "seed": 4})).unwrap();
+            "duration_s": 1.5, "load_nm": 1e-4, "seed": 4}))
+        .unwrap();
         let sc = c.scenario(&[]).unwrap();
         assert_eq!(sc.config.strategy.name, StrategyName::SixStep120);
         assert_eq!(sc.speed_rpm.value_at(1.0), 2000.0);
@@ -292,7 +302,8 @@ mod tests {
     #[test]
     fn config_overrides_apply_key_by_key() {
         let c = Case::from_value(json!({"strategy": "twelve-step-df", "speed_rpm": 3000,
-            "config": {"motor": {"resistance_ohm": 2.5}}})).unwrap();
+            "config": {"motor": {"resistance_ohm": 2.5}}}))
+        .unwrap();
         let sc = c.scenario(&[]).unwrap();
         assert_eq!(sc.config.motor.resistance_ohm, 2.5);
         let d = DriveConfig::default();
@@ -304,8 +315,14 @@ mod tests {
     fn errors_name_the_key_the_value_and_the_rule() {
         let cases = [
             (json!({"speed_rpm": 1000}), "`strategy` is missing"),
-            (json!({"strategy": "six-step-120"}), "`speed_rpm` is missing"),
-            (json!({"strategy": "x", "speed_rpm": 1000}), "unknown strategy `x`"),
+            (
+                json!({"strategy": "six-step-120"}),
+                "`speed_rpm` is missing",
+            ),
+            (
+                json!({"strategy": "x", "speed_rpm": 1000}),
+                "unknown strategy `x`",
+            ),
             (
                 json!({"strategy": "six-step-120", "speed_rpm": 99999}),
                 "`speed_rpm[0]` = 99999",
@@ -350,7 +367,8 @@ mod tests {
     fn a_scenario_table_is_a_scenario_file() {
         let c = Case::from_value(json!({"scenario": {"duration_s": 1.0,
             "speed_rpm": [[0, 1000], [0.5, 1000], [0.5, 2000]], "load": {"fan_nms2": 2e-10}},
-            "strategy": "twelve-step-nd", "seed": 3})).unwrap();
+            "strategy": "twelve-step-nd", "seed": 3}))
+        .unwrap();
         let sc = c.scenario(&[]).unwrap();
         assert_eq!(sc.speed_rpm.value_at(0.7), 2000.0);
         assert_eq!(sc.config.strategy.name, StrategyName::TwelveStepNd);

@@ -145,7 +145,11 @@ pub fn to_csv(rows: &[Row]) -> String {
             }
         }
     }
-    let mut out = names.iter().map(|n| quoted(n)).collect::<Vec<_>>().join(",");
+    let mut out = names
+        .iter()
+        .map(|n| quoted(n))
+        .collect::<Vec<_>>()
+        .join(",");
     out.push('\n');
     for r in &rows {
         let cell = |name: &str| match r.iter().find(|(k, _)| k == name).map(|(_, v)| v) {
@@ -169,29 +173,36 @@ fn quoted(s: &str) -> String {
 }
 
 /// The keys and values of a serialised struct, in field order (a `serde_json::Map` would
-/// sort them).
+/// sort them). The values come from `to_value`, exact: reading floats back from JSON text
+/// could change their last bit.
 fn ordered<T: Serialize>(v: &T) -> Vec<(String, Value)> {
+    let Ok(Value::Object(mut values)) = serde_json::to_value(v) else {
+        return Vec::new();
+    };
     let text = serde_json::to_string(v).unwrap_or_default();
-    serde_json::from_str::<Ordered>(&text).map_or_else(|_| Vec::new(), |o| o.0)
+    let keys = serde_json::from_str::<Keys>(&text).map_or_else(|_| Vec::new(), |k| k.0);
+    keys.into_iter()
+        .filter_map(|k| values.remove(&k).map(|x| (k, x)))
+        .collect()
 }
 
-/// A JSON object read with its keys in order.
-struct Ordered(Vec<(String, Value)>);
+/// The keys of a JSON object, in order.
+struct Keys(Vec<String>);
 
-impl<'de> serde::Deserialize<'de> for Ordered {
+impl<'de> serde::Deserialize<'de> for Keys {
     fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
         struct Visit;
         impl<'de> serde::de::Visitor<'de> for Visit {
-            type Value = Ordered;
+            type Value = Keys;
             fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
                 f.write_str("an object")
             }
-            fn visit_map<A: serde::de::MapAccess<'de>>(self, mut a: A) -> Result<Ordered, A::Error> {
-                let mut v = Vec::new();
-                while let Some(kv) = a.next_entry::<String, Value>()? {
-                    v.push(kv);
+            fn visit_map<A: serde::de::MapAccess<'de>>(self, mut a: A) -> Result<Keys, A::Error> {
+                let mut keys = Vec::new();
+                while let Some((k, _)) = a.next_entry::<String, serde::de::IgnoredAny>()? {
+                    keys.push(k);
                 }
-                Ok(Ordered(v))
+                Ok(Keys(keys))
             }
         }
         d.deserialize_map(Visit)
@@ -219,9 +230,11 @@ mod tests {
 
     #[test]
     fn seeds_are_the_case_s_own_or_its_index() {
-        let cases = parse(r#"[{"strategy": "six-step-120", "speed_rpm": 1000},
+        let cases = parse(
+            r#"[{"strategy": "six-step-120", "speed_rpm": 1000},
             {"strategy": "six-step-120", "speed_rpm": 1000, "seed": 42},
-            {"strategy": "six-step-120", "speed_rpm": 1000}]"#)
+            {"strategy": "six-step-120", "speed_rpm": 1000}]"#,
+        )
         .unwrap();
         let seeds: Vec<u64> = scenarios(&cases, &[])
             .unwrap()
@@ -233,36 +246,66 @@ mod tests {
 
     #[test]
     fn errors_name_the_case() {
-        let e = parse(r#"[{"strategy": "six-step-120", "speed_rpm": 1000},
-            {"strategy": "six-step-120", "speed_rpm": -5}]"#)
+        let e = parse(
+            r#"[{"strategy": "six-step-120", "speed_rpm": 1000},
+            {"strategy": "six-step-120", "speed_rpm": -5}]"#,
+        )
         .and_then(|c| scenarios(&c, &[]).map(|_| ()))
         .unwrap_err()
         .to_string();
-        assert!(e.starts_with("case 1: ") && e.contains("`speed_rpm[0]` = -5"), "{e}");
+        assert!(
+            e.starts_with("case 1: ") && e.contains("`speed_rpm[0]` = -5"),
+            "{e}"
+        );
         let e = parse(r#"[{"strategy": "six-step-120", "speed_rpm": 1000, "trace_every_us": 10}]"#)
             .and_then(|c| scenarios(&c, &[]).map(|_| ()))
             .unwrap_err()
             .to_string();
         assert!(e.starts_with("case 0: `trace_every_us` = 10"), "{e}");
         assert!(parse("{}").unwrap_err().to_string().contains("not a list"));
-        assert!(parse("[1]").unwrap_err().to_string().starts_with("case 0: "));
+        assert!(
+            parse("[1]")
+                .unwrap_err()
+                .to_string()
+                .starts_with("case 0: ")
+        );
     }
 
     #[test]
     fn columns_flatten_the_inputs_and_keep_the_summary_order() {
-        let cases = parse(r#"[{"strategy": "six-step-120", "speed_rpm": 800,
-            "duration_s": 0.02, "config": {"motor": {"resistance_ohm": 2.4}}}]"#)
+        let cases = parse(
+            r#"[{"strategy": "six-step-120", "speed_rpm": 800,
+            "duration_s": 0.02, "config": {"motor": {"resistance_ohm": 2.4}}}]"#,
+        )
         .unwrap();
         let sc = scenarios(&cases, &[]).unwrap();
         let row = run_row(0, &cases[0], &sc[0]).unwrap();
         let names: Vec<String> = row.columns().into_iter().map(|c| c.0).collect();
         assert_eq!(
             names[..7],
-            ["case", "seed", "speed_rpm", "duration_s", "config.motor.resistance_ohm", "strategy", "speed_ref_rpm"]
+            [
+                "case",
+                "seed",
+                "speed_rpm",
+                "duration_s",
+                "config.motor.resistance_ohm",
+                "strategy",
+                "speed_ref_rpm"
+            ]
         );
         let csv = to_csv(&[row]);
         let mut lines = csv.lines();
-        assert!(lines.next().unwrap().starts_with("case,seed,speed_rpm,duration_s,"));
-        assert!(lines.next().unwrap().starts_with("0,0,800.0,0.02,2.4,six-step-120,800.0,"));
+        assert!(
+            lines
+                .next()
+                .unwrap()
+                .starts_with("case,seed,speed_rpm,duration_s,")
+        );
+        assert!(
+            lines
+                .next()
+                .unwrap()
+                .starts_with("0,0,800.0,0.02,2.4,six-step-120,800.0,")
+        );
     }
 }

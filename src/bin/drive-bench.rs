@@ -466,7 +466,9 @@ fn run_sweep(
         write(p, &to_json(&rows)?)?;
     }
     if csv.is_none() && json.is_none() {
-        let _ = std::io::stdout().lock().write_all(sweep::to_csv(&rows).as_bytes());
+        let _ = std::io::stdout()
+            .lock()
+            .write_all(sweep::to_csv(&rows).as_bytes());
     }
     Ok(())
 }
