@@ -71,7 +71,7 @@ def main():
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, ax = plt.subplots(figsize=(7, 3.5))
+    fig, ax = plt.subplots(figsize=(8.5, 3.5))
     x = np.arange(len(names))
     ax.bar(x - 0.2, 100 * share["started"], 0.4, yerr=100 * half, capsize=3, label="started")
     ax.bar(x + 0.2, 100 * share["running"], 0.4, label="running at the end")
@@ -79,7 +79,7 @@ def main():
     ax.set_ylabel("share of drives [%]")
     ax.set_ylim(0, 105)
     ax.set_title(f"Start-up over ±10 % parameter spread, {n} samples each, {a.rpm:.0f} rpm")
-    ax.legend(loc="lower right")
+    ax.legend(loc="upper left", bbox_to_anchor=(1.0, 1.0))
     fig.tight_layout()
     fig.savefig(a.out, dpi=120)
     print(f"plot: {a.out}")
