@@ -34,6 +34,12 @@ if [ -z "${LIBCLANG_PATH:-}" ]; then
     export BINDGEN_EXTRA_CLANG_ARGS="-I$(gcc -print-file-name=include)"
 fi
 cargo xtask fmu >/dev/null
+# The Python package's tests need maturin, pytest, Dask, pandas, NumPy, pyarrow and
+# matplotlib (for the examples) in the same venv: pinned, installed when missing.
+if ! "$venv/bin/python" -c "import maturin, pytest, distributed, pandas, numpy, pyarrow, matplotlib" >/dev/null 2>&1; then
+    "$venv/bin/pip" install --quiet maturin==1.16.0 pytest==9.2.0 "dask[distributed]==2026.8.0" \
+        pandas==3.1.1 numpy==2.4.6 pyarrow==26.0.1 matplotlib==3.11.2
+fi
 
 cargo test --workspace --all-targets --locked "$@"
 # The API docs build without warnings (units in doc comments are written \[V\], not links).
@@ -52,3 +58,22 @@ echo "== examples/fmu/quickstart.py"
 echo "== examples/fmu/speed_step.py"
 "$venv/bin/python" examples/fmu/speed_step.py target/fmu/BldcDrive.fmu
 cargo run --quiet --profile test --locked --example library
+
+# The Python package: its wheel, installed into the venv; its examples, tiny; then its
+# tests (against the drive-bench built above). The wheel is built with the `wheel` profile
+# (opt-level 3, no LTO, 16 codegen units): `--profile test` would reuse what cargo test
+# compiled, but cargo builds the selected crate in test mode under that profile, which
+# makes the extension a test executable that Python cannot load.
+echo "== python: wheel"
+wheels=target/python-wheels
+rm -rf "$wheels"
+"$venv/bin/maturin" build --quiet --locked --profile wheel -m python/Cargo.toml \
+    -i "$venv/bin/python" -o "$wheels"
+"$venv/bin/pip" install --quiet --force-reinstall --no-deps "$wheels"/bldc_drive-*.whl
+for ex in "startup_montecarlo.py --samples 1 --duration-s 1.0" "speed_load_grid.py --speeds 2 --loads 2 --duration-s 0.5"; do
+    echo "== python/examples/$ex"
+    # shellcheck disable=SC2086 # the example's options are split on purpose
+    "$venv/bin/python" python/examples/$ex --out "target/python-${ex%%.py*}.png" >/dev/null
+done
+echo "== python: pytest"
+DRIVE_BENCH="${CARGO_TARGET_DIR:-target}/debug/drive-bench" "$venv/bin/python" -m pytest -q python/tests

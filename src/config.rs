@@ -51,6 +51,13 @@ impl DriveConfig {
         toml::to_string(self).unwrap_or_default()
     }
 
+    /// The config as a JSON object: the keys and values of [`DriveConfig::to_toml`].
+    pub fn to_json(&self) -> String {
+        // Through a TOML table, so that an absent option is left out rather than null.
+        let table = toml::Table::try_from(self).unwrap_or_default();
+        serde_json::to_string(&table).unwrap_or_default()
+    }
+
     /// Checks every rule of every section.
     pub fn validate(&self) -> Result<(), ParamError> {
         self.plant_params().validate()?;

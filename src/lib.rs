@@ -2,10 +2,12 @@
 //!
 //! A facade over the workspace crates: [`drive_core`] (engine and traits), [`plants`]
 //! (motor, bridge, sensing) and [`strategies`] (commutation strategies), plus the whole
-//! drive's TOML [`config`] and a [`drive`] builder.
+//! drive's TOML [`config`] and a [`drive`] builder; one run named by its inputs is a
+//! [`case`], and many of them a [`sweep`].
 #![forbid(unsafe_code)]
 
 pub mod bench;
+pub mod case;
 pub mod config;
 pub mod drive;
 pub mod metrics;
@@ -13,6 +15,7 @@ pub mod plots;
 pub mod profile;
 pub mod scenario;
 pub mod scenario_file;
+pub mod sweep;
 pub mod verdict;
 
 pub use config::{ConfigError, DriveConfig};

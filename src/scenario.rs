@@ -270,17 +270,12 @@ impl TraceRow {
         let mut f = zmij::Buffer::new();
         let mut int = Digits::default();
         // Whole 20 ns ticks: the nanosecond count is exact, printed as s with 9 decimals.
-        let ns = (self.t_s * 1e9).round().max(0.0) as u64;
+        let ns = self.time_ns();
         put(int.of(ns / 1_000_000_000));
         put(b".");
         // A leading 1 keeps the fraction's leading zeros.
         put(&int.of(ns % 1_000_000_000 + 1_000_000_000)[1..]);
-        // An angle a hair below 360° could round up to it: keep the column in [0, 360).
-        let theta = if self.theta_e_deg >= 360.0 {
-            0.0
-        } else {
-            self.theta_e_deg
-        };
+        let theta = self.theta_e_deg_wrapped();
         for x in [
             self.speed_rpm,
             self.speed_est_rpm,
@@ -306,6 +301,20 @@ impl TraceRow {
         put(b",");
         put(int.of(u64::from(self.restarts)));
         w.write_all(&row[..n])
+    }
+
+    /// The time as written: whole nanoseconds (the tick is 20 ns, so nothing is lost).
+    pub fn time_ns(&self) -> u64 {
+        (self.t_s * 1e9).round().max(0.0) as u64
+    }
+
+    /// θe as written, in [0, 360): an angle a hair below 360° could round up to it.
+    pub fn theta_e_deg_wrapped(&self) -> f64 {
+        if self.theta_e_deg >= 360.0 {
+            0.0
+        } else {
+            self.theta_e_deg
+        }
     }
 
     /// The row of the drive as it is now.

@@ -85,6 +85,18 @@ impl RunRecord {
     /// The present layout.
     pub const SCHEMA_VERSION: u32 = 1;
 
+    /// The record of a run of `sc` that gave `summary`: what `drive-bench run --json`
+    /// writes and `bldc_drive.simulate` returns.
+    pub fn of(sc: &Scenario, summary: Summary) -> Self {
+        Self::new(ScenarioFile::of(sc, ""), summary)
+    }
+
+    /// The record as JSON, as `drive-bench run --json` writes it.
+    pub fn to_json(&self) -> String {
+        // Plain structs of numbers and strings always serialise.
+        serde_json::to_string_pretty(self).unwrap_or_default()
+    }
+
     /// A record of `summary`, produced by `scenario`.
     pub fn new(scenario: ScenarioFile, summary: Summary) -> Self {
         RunRecord {
@@ -202,7 +214,10 @@ impl ScenarioFile {
 }
 
 /// `base` with the keys of `overrides` replaced, table by table, then checked.
-fn with_overrides(base: &DriveConfig, overrides: &toml::Table) -> Result<DriveConfig, ConfigError> {
+pub(crate) fn with_overrides(
+    base: &DriveConfig,
+    overrides: &toml::Table,
+) -> Result<DriveConfig, ConfigError> {
     if overrides.is_empty() {
         base.validate()?;
         return Ok(base.clone());

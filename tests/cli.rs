@@ -529,3 +529,109 @@ fn run_defaults_to_the_configs_strategy_and_speed() {
     assert_eq!(r["scenario"]["strategy"], "six-step-120");
     assert_eq!(r["summary"]["speed_ref_rpm"], 2000.0);
 }
+
+#[test]
+fn a_sweep_gives_each_case_the_summary_run_gives_it_with_the_case_s_seed() {
+    let (file, json, csv) = (tmp("cases.json"), tmp("rows.json"), tmp("rows.csv"));
+    std::fs::write(
+        &file,
+        r#"[{"strategy": "six-step-120", "speed_rpm": 1800, "duration_s": 0.3, "load_nm": 2e-4},
+            {"strategy": "twelve-step-df", "speed_rpm": 3000, "duration_s": 0.3, "seed": 9,
+             "config": {"motor": {"resistance_ohm": 2.4}}}]"#,
+    )
+    .unwrap();
+    let out = bench(&[
+        "sweep",
+        file.to_str().unwrap(),
+        "--json",
+        json.to_str().unwrap(),
+        "--csv",
+        csv.to_str().unwrap(),
+        "--threads",
+        "2",
+    ]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let rows = read_json(&json);
+    let cfg = tmp("r24.toml");
+    std::fs::write(&cfg, "[motor]\nresistance_ohm = 2.4\n").unwrap();
+    // Case 0 runs with seed 0 (its index), case 1 with its own.
+    let alone = [
+        vec![
+            "--strategy",
+            "six-step-120",
+            "--speed-rpm",
+            "1800",
+            "--duration-s",
+            "0.3",
+        ]
+        .into_iter()
+        .chain(["--load-nm", "2e-4", "--seed", "0"])
+        .collect::<Vec<_>>(),
+        vec![
+            "--strategy",
+            "twelve-step-df",
+            "--speed-rpm",
+            "3000",
+            "--duration-s",
+            "0.3",
+        ]
+        .into_iter()
+        .chain(["--seed", "9", "--config", cfg.to_str().unwrap()])
+        .collect(),
+    ];
+    for (k, args) in alone.iter().enumerate() {
+        let one = tmp(&format!("one-{k}.json"));
+        let mut a = vec!["run"];
+        a.extend(args.iter().copied());
+        a.extend(["--json", one.to_str().unwrap()]);
+        bench(&a);
+        let summary = &read_json(&one)["summary"];
+        let row = &rows[k];
+        assert_eq!(row["case"], k);
+        for (key, value) in summary.as_object().unwrap() {
+            if key != "wall_s" && key != "realtime_factor" {
+                assert_eq!(&row[key], value, "case {k}: {key}");
+            }
+        }
+    }
+    assert_eq!(rows[0]["seed"], 0);
+    assert_eq!(rows[1]["seed"], 9);
+    assert_eq!(rows[1]["config.motor.resistance_ohm"], 2.4);
+    let csv = std::fs::read_to_string(&csv).unwrap();
+    let header = csv.lines().next().unwrap();
+    assert!(
+        header.starts_with("case,seed,speed_rpm,duration_s,load_nm,strategy,"),
+        "{header}"
+    );
+    assert!(header.ends_with(",config.motor.resistance_ohm"), "{header}");
+    assert_eq!(csv.lines().count(), 3);
+}
+
+#[test]
+fn a_bad_sweep_case_is_named_before_anything_runs_or_is_written() {
+    let (file, csv) = (tmp("bad-cases.json"), tmp("bad-rows.csv"));
+    let _ = std::fs::remove_file(&csv);
+    for (cases, want) in [
+        (
+            r#"[{"strategy": "six-step-120", "speed_rpm": 1000}, {"strategy": "six-step-120", "speed_rpm": 1000, "config": {"motor": {"inertia_kgm2": -1}}}]"#,
+            "case 1: config: invalid parameter `motor.inertia_kgm2` = -1",
+        ),
+        (
+            r#"[{"strategy": "six-step-120", "speed_rpm": 1000, "speeed": 1}]"#,
+            "case 0: unknown key `speeed`",
+        ),
+        (r#"{"strategy": "x"}"#, "not a list"),
+        ("[]", "an empty list"),
+    ] {
+        std::fs::write(&file, cases).unwrap();
+        let out = bench(&[
+            "sweep",
+            file.to_str().unwrap(),
+            "--csv",
+            csv.to_str().unwrap(),
+        ]);
+        assert_eq!(out.status.code(), Some(1));
+        assert!(text(&out.stderr).contains(want), "{}", text(&out.stderr));
+        assert!(!csv.exists());
+    }
+}

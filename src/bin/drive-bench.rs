@@ -2,11 +2,12 @@
 
 use bldc_drive::DriveConfig;
 use bldc_drive::bench::{self, Plan, calibrate, pool, range, report};
+use bldc_drive::case::{Case, apply, choose};
 use bldc_drive::plots;
-use bldc_drive::profile::LoadProfile;
-use bldc_drive::scenario::{self, Scenario, TraceRow, TraceSpec};
-use bldc_drive::scenario_file::{RunRecord, ScenarioFile};
+use bldc_drive::scenario::{self, TraceRow, TraceSpec};
+use bldc_drive::scenario_file::RunRecord;
 use bldc_drive::strategies::{PluginLibrary, StrategyName};
+use bldc_drive::sweep;
 use clap::{Args, Parser, Subcommand};
 use std::io::{BufWriter, IsTerminal, Write};
 use std::path::{Path, PathBuf};
@@ -75,6 +76,25 @@ enum Cmd {
         /// Writes the result, with every run, as JSON.
         #[arg(long)]
         json: Option<PathBuf>,
+    },
+    /// Runs the cases of a sweep file on local threads and writes one row per case, in the
+    /// file's order: its index, seed, inputs, verdict and summary. The file is a JSON list
+    /// of case objects whose keys are this program's `run` options (strategy, speed_rpm,
+    /// duration_s, load_nm, config, scenario, seed; config and scenario a path or a
+    /// table). Case k runs with its own seed, else with seed k. Every case is checked
+    /// before any runs.
+    Sweep {
+        /// The sweep file (JSON).
+        file: PathBuf,
+        /// Writes the rows as CSV (without --csv or --json: CSV on stdout).
+        #[arg(long)]
+        csv: Option<PathBuf>,
+        /// Writes the rows as JSON: a list of objects with the CSV's columns.
+        #[arg(long)]
+        json: Option<PathBuf>,
+        /// Worker threads (default: every core).
+        #[arg(long, value_parser = clap::value_parser!(u16).range(1..=256))]
+        threads: Option<u16>,
     },
     /// Lists the strategies.
     List,
@@ -148,42 +168,11 @@ fn main() {
     }
 }
 
-/// A strategy chosen by name: built in, or from a loaded plugin.
-enum Chosen {
-    Builtin(StrategyName),
-    Plugin(PluginLibrary),
-}
-
 fn load_plugins(paths: &[PathBuf]) -> Result<Vec<PluginLibrary>, String> {
     paths
         .iter()
         .map(|p| PluginLibrary::load(p).map_err(|e| e.to_string()))
         .collect()
-}
-
-fn choose(name: &str, plugins: &[PluginLibrary]) -> Result<Chosen, String> {
-    if let Some(p) = plugins.iter().find(|p| p.name() == name) {
-        return Ok(Chosen::Plugin(p.clone()));
-    }
-    name.parse().map(Chosen::Builtin).map_err(|_| {
-        let mut known: Vec<String> = StrategyName::ALL.iter().map(|n| n.to_string()).collect();
-        known.extend(plugins.iter().map(|p| p.name().to_string()));
-        format!(
-            "unknown strategy `{name}` (rule: one of {})",
-            known.join(", ")
-        )
-    })
-}
-
-/// Applies the choice to `cfg`, returning the plugin if there is one.
-fn apply(chosen: Chosen, cfg: &mut DriveConfig) -> Option<PluginLibrary> {
-    match chosen {
-        Chosen::Builtin(n) => {
-            cfg.strategy.name = n;
-            None
-        }
-        Chosen::Plugin(p) => Some(p),
-    }
 }
 
 fn run(cli: Cli) -> Result<i32, String> {
@@ -205,7 +194,7 @@ fn run(cli: Cli) -> Result<i32, String> {
             json,
         }) => {
             let mut cfg = load_config(config.as_deref())?;
-            let plugin = apply(choose(&strategy, &plugins)?, &mut cfg);
+            let plugin = apply(choose(&strategy, &plugins).map_err(|e| e.0)?, &mut cfg);
             cfg.validate().map_err(|e| e.to_string())?;
             if let Some(p) = &json {
                 check_outputs(&[p.as_path()])?;
@@ -257,6 +246,12 @@ fn run(cli: Cli) -> Result<i32, String> {
             }
             calibrate_lm(&cfg, json.as_deref())
         }
+        Some(Cmd::Sweep {
+            file,
+            csv,
+            json,
+            threads,
+        }) => run_sweep(&file, csv, json, threads, &plugins).map(|()| 0),
         Some(Cmd::List) => {
             for n in StrategyName::ALL {
                 println!("{n}");
@@ -318,30 +313,21 @@ fn compare(a: CompareArgs, plugins: Vec<PluginLibrary>) -> Result<(), String> {
 
 fn run_one(a: RunArgs, plugins: &[PluginLibrary]) -> Result<i32, String> {
     // Everything is checked before any file is touched or any time simulated.
-    let mut cfg = load_config(a.config.as_deref())?;
-    let mut sc = match &a.scenario {
-        Some(p) => {
-            let text = std::fs::read_to_string(p).map_err(|e| format!("{}: {e}", p.display()))?;
-            ScenarioFile::from_toml(&text)
-                .and_then(|f| f.scenario(&cfg, plugins))
-                .map_err(|e| format!("{}: {e}", p.display()))?
-        }
-        None => {
-            let duration = a.duration_s.unwrap_or(3.0);
-            let rpm = a.speed_rpm.unwrap_or(cfg.control.speed_ref_rpm);
-            let mut sc = Scenario::hold(cfg.clone(), rpm, duration);
-            sc.load = LoadProfile::coulomb(a.load_nm.unwrap_or(0.0));
-            sc
-        }
+    let path = |p: &Option<PathBuf>| {
+        p.as_ref()
+            .map(|p| serde_json::Value::String(p.to_string_lossy().into_owned()))
     };
-    if let Some(name) = &a.strategy {
-        cfg = sc.config.clone();
-        sc.plugin = apply(choose(name, plugins)?, &mut cfg);
-        sc.config = cfg;
-    }
-    if let Some(seed) = a.seed {
-        sc.config.sensing.seed = seed;
-    }
+    let case = Case {
+        strategy: a.strategy.clone(),
+        speed_rpm: a.speed_rpm,
+        duration_s: a.duration_s,
+        load_nm: a.load_nm,
+        config: path(&a.config),
+        scenario: path(&a.scenario),
+        seed: a.seed,
+        trace_every_us: None,
+    };
+    let mut sc = case.scenario(plugins).map_err(|e| e.0)?;
     if a.trace.is_some() {
         sc.trace = Some(TraceSpec {
             every_s: a.trace_every_us * 1e-6,
@@ -374,7 +360,6 @@ fn run_one(a: RunArgs, plugins: &[PluginLibrary]) -> Result<i32, String> {
             d.join("zoom.svg").as_path(),
         ])?;
     }
-    let record = ScenarioFile::of(&sc, "");
     let mut trace = match &a.trace {
         Some(p) => {
             let f = std::fs::File::create(p).map_err(|e| format!("{}: {e}", p.display()))?;
@@ -432,7 +417,7 @@ fn run_one(a: RunArgs, plugins: &[PluginLibrary]) -> Result<i32, String> {
     // sets the exit status.
     let _ = std::io::stdout().lock().write_all(text.as_bytes());
     if let Some(p) = a.json {
-        write(&p, &to_json(&RunRecord::new(record, s.clone()))?)?;
+        write(&p, &RunRecord::of(&sc, s.clone()).to_json())?;
     }
     if let Some(d) = &a.plot {
         let mut untraced = sc.clone();
@@ -442,6 +427,51 @@ fn run_one(a: RunArgs, plugins: &[PluginLibrary]) -> Result<i32, String> {
         }
     }
     Ok(s.verdict.exit_code())
+}
+
+fn run_sweep(
+    file: &Path,
+    csv: Option<PathBuf>,
+    json: Option<PathBuf>,
+    threads: Option<u16>,
+    plugins: &[PluginLibrary],
+) -> Result<(), String> {
+    // Every case is checked, and the outputs, before the first run.
+    let named = |e: String| format!("{}: {e}", file.display());
+    let text = std::fs::read_to_string(file).map_err(|e| named(e.to_string()))?;
+    let cases = sweep::parse(&text).map_err(|e| named(e.0))?;
+    let scenarios = sweep::scenarios(&cases, plugins).map_err(|e| named(e.0))?;
+    let outputs: Vec<&Path> = csv.iter().chain(&json).map(|p| p.as_path()).collect();
+    check_outputs(&outputs)?;
+    let threads = threads.map_or_else(pool::default_threads, usize::from);
+    let index: Vec<usize> = (0..cases.len()).collect();
+    let rows = pool::map(&index, threads, Some("sweep"), |&k| {
+        sweep::run_row(k, &cases[k], &scenarios[k]).map_err(|e| format!("case {k}: {e}"))
+    })
+    .into_iter()
+    .collect::<Result<Vec<_>, _>>()?;
+    let mut counts: Vec<(&str, usize)> = Vec::new();
+    for r in &rows {
+        let v = r.summary.verdict.as_str();
+        match counts.iter_mut().find(|c| c.0 == v) {
+            Some(c) => c.1 += 1,
+            None => counts.push((v, 1)),
+        }
+    }
+    let counts: Vec<String> = counts.iter().map(|(v, n)| format!("{v} {n}")).collect();
+    eprintln!("{} cases: {}", rows.len(), counts.join(", "));
+    if let Some(p) = &csv {
+        write(p, &sweep::to_csv(&rows))?;
+    }
+    if let Some(p) = &json {
+        write(p, &to_json(&rows)?)?;
+    }
+    if csv.is_none() && json.is_none() {
+        let _ = std::io::stdout()
+            .lock()
+            .write_all(sweep::to_csv(&rows).as_bytes());
+    }
+    Ok(())
 }
 
 fn calibrate_lm(cfg: &DriveConfig, json: Option<&Path>) -> Result<i32, String> {

@@ -1,0 +1,58 @@
+"""Shared helpers: the drive-bench binary the Python results are checked against, and
+the optional packages a test needs (a missing one fails with how to install it)."""
+
+import importlib
+import json
+import os
+import pathlib
+import subprocess
+
+import pytest
+
+ROOT = pathlib.Path(__file__).resolve().parents[2]
+
+# Wall-clock figures: the only summary keys that differ between two runs of one case.
+WALL_CLOCK = ("wall_s", "realtime_factor")
+
+
+def need(module: str, pip_name: str):
+    """The module, or a failure saying how to install it (never a silent skip)."""
+    try:
+        return importlib.import_module(module)
+    except ImportError:
+        pytest.fail(f"{module} is missing: pip install {pip_name}")
+
+
+@pytest.fixture(scope="session")
+def drive_bench() -> pathlib.Path:
+    """The drive-bench binary: $DRIVE_BENCH, else the newest one under the target folder
+    ($CARGO_TARGET_DIR or target/)."""
+    if os.environ.get("DRIVE_BENCH"):
+        return pathlib.Path(os.environ["DRIVE_BENCH"])
+    target = pathlib.Path(os.environ.get("CARGO_TARGET_DIR") or ROOT / "target")
+    found = [p for p in (target / d / "drive-bench" for d in ("debug", "release", "wheel")) if p.is_file()]
+    if not found:
+        pytest.fail(
+            f"drive-bench not found under {target}: build it (cargo build --profile test --bin drive-bench) "
+            "or set DRIVE_BENCH"
+        )
+    return max(found, key=lambda p: p.stat().st_mtime)
+
+
+def cli(binary, *args, check=True):
+    """Runs drive-bench; the completed process."""
+    p = subprocess.run([str(binary), *map(str, args)], capture_output=True, text=True)
+    if check and p.returncode not in (0, 3, 4, 5, 6, 7, 8):
+        pytest.fail(f"drive-bench {' '.join(map(str, args))} failed ({p.returncode}): {p.stderr}")
+    return p
+
+
+def cli_json(binary, tmp_path, *args):
+    """The document `drive-bench ... --json FILE` writes."""
+    out = tmp_path / f"out-{len(list(tmp_path.iterdir()))}.json"
+    cli(binary, *args, "--json", out)
+    return json.loads(out.read_text())
+
+
+def without_wall_clock(summary: dict) -> dict:
+    return {k: v for k, v in summary.items() if k not in WALL_CLOCK}
