@@ -287,6 +287,13 @@ mod tests {
             // The coupled mode: max_step·max(k/√(L·J), k²/(R·J)) <= 2.
             ("motor.flux_linkage_wb", "max"),
             ("motor.resistance_ohm", "min"),
+            // The current limit below the current sense's full scale:
+            // min(amplifier swing, ADC range)/(gain·shunt) > control.current_limit_a.
+            ("control.current_limit_a", "max"),
+            ("power_stage.shunt_ohm", "max"),
+            ("sensing.current.amplifier_gain", "max"),
+            ("sensing.current.amplifier_max_v", "min"),
+            ("sensing.current.adc_full_scale_v", "min"),
         ];
         for v in table() {
             let Role::Parameter { set, .. } = v.role else {
