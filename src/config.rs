@@ -12,17 +12,17 @@ use strategies::{ControlParams, StrategyParams};
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct DriveConfig {
-    /// Motor (SPEC §1).
+    /// Motor (docs/model.md).
     pub motor: MotorParams,
-    /// Bridge and supply (SPEC §2).
+    /// Bridge and supply (docs/model.md).
     pub power_stage: PowerStageParams,
-    /// Current sense and comparators (SPEC §2).
+    /// Current sense and comparators (docs/model.md).
     pub sensing: SensingParams,
     /// Plant integrator.
     pub solver: SolverParams,
-    /// Speed/current control, start-up, supervision (SPEC §6–§7).
+    /// Speed/current control, start-up, supervision (docs/chip.md).
     pub control: ControlParams,
-    /// Commutation strategy and zero-crossing guard (SPEC §3–§5).
+    /// Commutation strategy and zero-crossing guard (docs/chip.md).
     pub strategy: StrategyParams,
 }
 

@@ -181,7 +181,7 @@ fn every_guarded_strategy_starts_locks_and_holds_the_commanded_speed() {
     }
 }
 
-/// SPEC §5: ND applies full voltage for 15° of every 60°, which floors the average voltage.
+/// ND applies full voltage for 15° of every 60°, which floors the average voltage.
 /// On this motor the floor alone drives it to ≈ 4700 rpm: commanded below that, the speed
 /// PI asks for no current, the PWM duty sits at 0, and the speed is the same whatever the
 /// command — but the drive stays locked (commutations on the boundaries, no restart).
@@ -398,7 +398,7 @@ fn a_small_speed_step_is_well_damped() {
     assert!((after - 3300.0).abs() < 33.0, "{after:.0}");
 }
 
-/// The current PI's back-calculation anti-windup (SPEC §6), on and off. A command beyond
+/// The current PI's back-calculation anti-windup (docs/chip.md), on and off. A command beyond
 /// reach (16 000 rpm; the drive tops out near 13 000) holds the voltage command at full
 /// scale for seconds; at 3.5 s the command drops to 8000 rpm.
 ///

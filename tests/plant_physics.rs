@@ -89,12 +89,12 @@ fn energy_balance_and_torque_consistency_with_pwm() {
             * (o.i.u * o.theta_e.sin()
                 + o.i.v * (o.theta_e - third).sin()
                 + o.i.w * (o.theta_e + third).sin());
-        // The plant's own torque and back-EMF (each checked against SPEC below).
+        // The plant's own torque and back-EMF (each checked against an independent formula below).
         let p_ei = o.emf.u * o.i.u + o.emf.v * o.i.v + o.emf.w * o.i.w;
         let scale = 1e-3 * (1.0 + o.omega_m.abs());
         assert!(
             (o.torque_nm - te).abs() < 1e-15,
-            "Te {} vs SPEC {}",
+            "Te {} vs the formula {}",
             o.torque_nm,
             te
         );

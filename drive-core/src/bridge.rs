@@ -3,7 +3,7 @@
 use crate::abc::{Abc, Phase};
 use serde::{Deserialize, Serialize};
 
-/// What a commutation pattern asks of one leg (SPEC §3 notation).
+/// What a commutation pattern asks of one leg (docs/chip.md).
 #[derive(Copy, Clone, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
 pub enum LegState {
     /// "V": the phase is tied to the supply V_DD (high-side switch, subject to PWM).
@@ -21,7 +21,7 @@ pub type Pattern = Abc<LegState>;
 /// The all-floating pattern (chip flag 0110).
 pub const ALL_FLOAT: Pattern = Abc::splat(LegState::Float);
 
-/// The 120° six-step table of SPEC §3, states 1..6 (index 0..5): state k spans
+/// The 120° six-step table of docs/chip.md, states 1..6 (index 0..5): state k spans
 /// θe = −30° + 60°·(k−1) .. +60°, the floating phase's back-EMF crossing mid-state.
 pub const SIX_STEP_120: [Pattern; 6] = {
     use LegState::{Float as F, High as V, Low as G};
@@ -85,7 +85,7 @@ impl Gates {
         Ok(())
     }
 
-    /// The chip's gate signals Tr1..Tr6 as printed in SPEC §3: the high side is PMOS
+    /// The chip's gate signals Tr1..Tr6 as the published table prints them: the high side is PMOS
     /// (signal 1 = off), the low side NMOS (signal 0 = off).
     pub fn to_chip_signals(&self) -> [u8; 6] {
         let mut s = [0u8; 6];
@@ -121,7 +121,7 @@ mod tests {
 
     #[test]
     fn chip_signals_of_twelve_step_state_1_and_off() {
-        // SPEC §3 state 1: u=V, v=G, w=V → Tr1..Tr6 = 0 0 1 1 0 0.
+        // Published state 1: u=V, v=G, w=V → Tr1..Tr6 = 0 0 1 1 0 0.
         let g = Gates::from_pattern(&Abc {
             u: LegState::High,
             v: LegState::Low,

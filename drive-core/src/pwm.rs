@@ -5,7 +5,7 @@ use crate::error::ParamError;
 use crate::time::Ticks;
 use serde::{Deserialize, Serialize};
 
-/// A voltage command in carrier counts: duty = `cv / top` (SPEC §5: duty = cv/2000).
+/// A voltage command in carrier counts: duty = `cv / top` (the chip's duty = cv/2000).
 pub type DutyCounts = u32;
 
 /// Symmetric triangle carrier counting 0 → `top` → 0, one count per master tick.

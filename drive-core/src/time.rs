@@ -125,7 +125,7 @@ impl Sub for Ticks {
     }
 }
 
-/// The chip's clocks (SPEC §7), as periods in master ticks.
+/// The chip's clocks (docs/chip.md), as periods in master ticks.
 pub mod clocks {
     use super::Ticks;
     /// PWM counter: one count per master tick (20 ns).

@@ -6,7 +6,7 @@
 //! v_x − v_n = R·i_x + L·di_x/dt + e_x,   L = Lp + M,   Σ_conducting i_x = 0
 //! ```
 //!
-//! The −M·Σ_{y≠x} di_y/dt term of SPEC §1 becomes +M·di_x/dt because the currents sum to
+//! The −M·Σ_{y≠x} di_y/dt term of the motor equation becomes +M·di_x/dt because the currents sum to
 //! zero. A conducting leg drives its terminal as a source behind a resistance:
 //! `v_x = V_src − R_src·i_x` (+ the shunt drop `R_sh·i_sh` for legs tied to the low rail):
 //!
@@ -130,6 +130,28 @@ pub struct Circuit {
     r_sh: f64,
 }
 
+impl Solution {
+    /// A solution from per-phase arrays (u, v, w).
+    #[inline]
+    fn of(di: [f64; 3], v: [f64; 3], v_n: f64, i_shunt: f64, powers: Powers) -> Self {
+        Solution {
+            di: Abc {
+                u: di[0],
+                v: di[1],
+                w: di[2],
+            },
+            v_term: Abc {
+                u: v[0],
+                v: v[1],
+                w: v[2],
+            },
+            v_n,
+            i_shunt,
+            powers,
+        }
+    }
+}
+
 impl Circuit {
     /// From validated parameters.
     pub fn new(m: &MotorParams, p: &PowerStageParams) -> Self {
@@ -233,21 +255,7 @@ impl Circuit {
                 v[k] = v_n + e[k];
             }
         }
-        Solution {
-            di: Abc {
-                u: di[0],
-                v: di[1],
-                w: di[2],
-            },
-            v_term: Abc {
-                u: v[0],
-                v: v[1],
-                w: v[2],
-            },
-            v_n,
-            i_shunt: i_sh,
-            powers: pw,
-        }
+        Solution::of(di, v, v_n, i_sh, pw)
     }
 
     /// [`Circuit::solve`] for the conduction state `plan` was made for (see [`Plan`]): the
@@ -308,21 +316,7 @@ impl Circuit {
                 v[k] = v_n + e[k];
             }
         }
-        Solution {
-            di: Abc {
-                u: di[0],
-                v: di[1],
-                w: di[2],
-            },
-            v_term: Abc {
-                u: v[0],
-                v: v[1],
-                w: v[2],
-            },
-            v_n,
-            i_shunt: i_sh,
-            powers: pw,
-        }
+        Solution::of(di, v, v_n, i_sh, pw)
     }
 
     /// The plan of [`Circuit::solve_planned`] for conduction state `modes`.

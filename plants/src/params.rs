@@ -1,6 +1,6 @@
 //! Plant parameters: motor, power stage, sensing and solver, each serde-able and validated.
 //!
-//! Defaults are the published motor (SPEC §1) plus the values this project chose where the
+//! Defaults are the published motor (docs/model.md) plus the values this project chose where the
 //! source is silent or unreliable; each such choice is justified on its field.
 
 use drive_core::error::{ParamError, check_non_negative, check_positive_max, check_range};
@@ -306,7 +306,7 @@ impl PowerStageParams {
     }
 }
 
-/// Shunt amplifier, anti-alias filter and ADC (SPEC §2).
+/// Shunt amplifier, anti-alias filter and ADC (docs/model.md).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct CurrentSenseParams {
@@ -391,7 +391,7 @@ impl CurrentSenseParams {
     }
 }
 
-/// The phase-vs-neutral comparators and their analog front end (SPEC §2).
+/// The phase-vs-neutral comparators and their analog front end (docs/model.md).
 ///
 /// Each comparator sees `s_x = y_x − y_n − offset_x + ring_x + noise_x`, where `y_x` and
 /// `y_n` are the terminal and neutral voltages through separate first-order RC filters.

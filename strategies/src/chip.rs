@@ -1,5 +1,5 @@
 //! The chip as one controller: start-up, supervision, phase shifter, guard and the
-//! speed/current cascade, each on its own clock (SPEC §4–§7).
+//! speed/current cascade, each on its own clock (docs/chip.md).
 //!
 //! Every internal event (end of an alignment step, post → pre commutation, opening of a
 //! linear-region window, digital-filter settling, PI update, step-miss deadline) falls on a
@@ -17,7 +17,7 @@ use drive_core::bridge::{ALL_FLOAT, LegState};
 use drive_core::error::ParamError;
 use drive_core::{Abc, Command, Controller, Pattern, Sensed, Ticks, clocks};
 
-/// Master clocks the start input must be held before start-up begins (SPEC §7).
+/// Master clocks the start input must be held before start-up begins (docs/chip.md).
 pub const START_DEBOUNCE: Ticks = Ticks(31);
 
 /// Blanking after a commutation before a pre-crossing level counts as genuine \[ticks\]:
@@ -26,7 +26,7 @@ pub const BLANKING: Ticks = Ticks(500);
 
 /// Range of the current PI's integrator relative to its output limit: the chip's 23-bit
 /// anti-windup path holds up to 2^23 − 1 where the limit is 4 096 000 (= 2000 counts ×
-/// 2048), so without anti-windup the integrator can wind to ≈ 2.05× full duty (SPEC §6–§7).
+/// 2048), so without anti-windup the integrator can wind to ≈ 2.05× full duty (docs/chip.md).
 pub const CURRENT_INTEGRATOR_HEADROOM: f64 = ((1u64 << 23) - 1) as f64 / 4_096_000.0;
 
 /// The three alignment patterns u→v, v→w, v→u (flags 0100, 0000, 0001).
@@ -484,7 +484,7 @@ impl Chip {
         }
     }
 
-    /// Speed PI → current command; current PI → voltage command (SPEC §6).
+    /// Speed PI → current command; current PI → voltage command (docs/chip.md).
     ///
     /// Which one saturates: the current PI only where `current_limit_a` needs more than
     /// full voltage (near top speed, ≈ 9000 rpm and up on the built-in motor); below that

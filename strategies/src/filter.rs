@@ -1,4 +1,4 @@
-//! The digital filter guard (SPEC §5 "DF"): a shift register of N D flip-flops clocked at
+//! The digital filter guard ("DF"): a shift register of N D flip-flops clocked at
 //! 0.64 µs and an RS latch.
 //!
 //! d0 … d(N−1) hold Z_d delayed by 1 … N samples. S = d0·d1·…, R = ¬(d0 + d1 + …), and

@@ -1,4 +1,4 @@
-//! Zero-crossing guards (SPEC §5): what protects the crossing detection from PWM edges.
+//! Zero-crossing guards (docs/chip.md): what protects the crossing detection from PWM edges.
 //!
 //! - `raw`: the comparator output is used as is.
 //! - `nd`: a linear region of θZC = `linear_region_deg` before each expected crossing, in

@@ -1,6 +1,6 @@
 //! strategies: the chip's commutation strategies as [`drive_core::Controller`]s.
 //!
-//! The chip ([`Chip`]) is composed of small parts, each testable against SPEC on its own:
+//! The chip ([`Chip`]) is composed of small parts, each testable against the published chip on its own:
 //! the commutation [`table`]s, the phase [`shifter`], the zero-crossing [`guard`]s and the
 //! digital [`filter`], the FG [`speed`] meter, the [`pi`] controllers, the plausibility
 //! [`supervisor`], and the start-up and supervision logic in [`chip`]. [`params`] holds the `[control]` and `[strategy]` config.

@@ -71,7 +71,7 @@ pub struct ControlParams {
     /// Default 0.2 (≈ 0.5 A into a locked phase pair at 12 V). Rule: 0 < x ≤ 1.
     pub startup_duty: f64,
     /// Durations of the three alignment steps u→v, v→w, v→u \[s\]; each is rounded to the
-    /// align clock (327.68 µs). Default [0.7, 0.038, 0.015] (SPEC §7). Rule: each in
+    /// align clock (327.68 µs). Default [0.7, 0.038, 0.015] (docs/chip.md). Rule: each in
     /// 0.000 327 68..=10.
     pub align_s: [f64; 3],
     /// Time the floating-phase crossing logic assumes for the first 60° after the hand-over
@@ -140,7 +140,7 @@ pub struct ControlParams {
     /// are at most 5 long, a rotor accelerating under the current limit slips 30° in
     /// ≈ 40). Rule: 2..=1000.
     pub supervisor_blind_sectors: u32,
-    /// Width of the speed counter (2.56 µs counts) \[bits\]. Default 15 (SPEC §7 "counters 15
+    /// Width of the speed counter (2.56 µs counts) \[bits\]. Default 15 (the chip's "counters 15
     /// bit"): it saturates at 32767 counts, so with k = 10 and 12 poles the lowest speed it
     /// can read is 39 062 500 / 32767 ≈ 1192 rpm. Rule: 8..=32.
     pub speed_counter_bits: u32,
@@ -475,7 +475,7 @@ pub enum GuardKind {
     Raw,
     /// Fixed linear region of `strategy.linear_region_deg` before each expected crossing.
     Nd,
-    /// Linear region shrunk with the measured speed (SPEC §5).
+    /// Linear region shrunk with the measured speed (docs/chip.md).
     Lm,
     /// Digital filter of `strategy.filter_samples` flip-flops and an RS latch.
     Df,

@@ -1,4 +1,4 @@
-//! The chip's discrete PI (SPEC §6), with optional back-calculation anti-windup.
+//! The chip's discrete PI (docs/chip.md), with optional back-calculation anti-windup.
 //!
 //! Per update k, with error e(k):
 //!
@@ -14,7 +14,7 @@
 //! must be unwound by an error of the other sign; with it, any excess over the limit is
 //! fed back k_s-fold, which pulls the integrator out of saturation within one update.
 //!
-//! The back-calculation acts on the upper limit only (SPEC §6: "when uc exceeds the
+//! The back-calculation acts on the upper limit only (the chip: "when uc exceeds the
 //! limit", the chip's 4 096 000). Mirrored at the lower limit, a k_s ≫ 1 turns a large
 //! negative proportional term (one high current sample) into a k_s-fold *positive* kick
 //! that flings the integrator to full duty; there the integrator clamp alone suffices.

@@ -1,4 +1,4 @@
-//! The digital phase shifter (SPEC §4): from zero crossings to commutation instants.
+//! The digital phase shifter (docs/chip.md): from zero crossings to commutation instants.
 //!
 //! The chip's two counters C_p, C_n time how long Z_d stays high and low, each 60° of
 //! rotation; the finished one, t_60, fixes the next commutation. Here t_60 is the number of

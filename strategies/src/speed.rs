@@ -1,4 +1,4 @@
-//! FG speed measurement (SPEC §6): count the 2.56 µs clock over k FG periods.
+//! FG speed measurement (docs/chip.md): count the 2.56 µs clock over k FG periods.
 //!
 //! One FG period is one electrical turn, i.e. 1/(P/2) of a mechanical turn, so with N counts
 //! of 2.56 µs over k periods: ω \[rpm\] = 60·k / ((P/2)·N·2.56 µs) = 23 437 500·k / ((P/2)·N).

@@ -1,4 +1,4 @@
-//! Commutation tables (SPEC §3) and the sector view the phase shifter works in.
+//! Commutation tables (docs/chip.md) and the sector view the phase shifter works in.
 //!
 //! Both strategies are driven crossing to crossing. Sector k (k = 0..5) starts at the
 //! back-EMF zero crossing at θe = 60°·k. After the crossing the drive applies a *post*
@@ -6,7 +6,7 @@
 //! phase floats and its comparator is watched for the next crossing, at 60°·(k+1).
 //!
 //! - Twelve-step with conduction angle α: post = the 3-phase state 2k+1 for (α − 120)°,
-//!   pre = the 2-phase state 2k+2 for (180 − α)°. At α = 150° this is SPEC §3's table.
+//!   pre = the 2-phase state 2k+2 for (180 − α)°. At α = 150° this is the published table.
 //! - Six-step 120°: the crossing falls mid-state, so post = six-step state k+1 (its second
 //!   half, 30°) and pre = state k+2 (its first half, 30°).
 
@@ -29,7 +29,7 @@ pub struct TwelveStepRow {
 /// The chip's "off" flag: every leg floating.
 pub const OFF_FLAG: u8 = 0b0110;
 
-/// SPEC §3, 150° twelve-step, states 1..12 (index 0..11).
+/// docs/chip.md, 150° twelve-step, states 1..12 (index 0..11).
 pub const TWELVE_STEP: [TwelveStepRow; 12] = {
     use LegState::{Float as F, High as V, Low as G};
     const fn row(
@@ -170,7 +170,7 @@ impl Table {
         }
     }
 
-    /// FG_c of a state: high for θe in 150..330 (SPEC §3's FG column, and the same
+    /// FG_c of a state: high for θe in 150..330 (the published FG column, and the same
     /// half-turn split for six-step states 4..6), so one FG period is one electrical turn.
     pub fn fg(&self, state: u8) -> bool {
         match self {
@@ -184,7 +184,7 @@ impl Table {
 mod tests {
     use super::*;
 
-    /// SPEC §3 printed Tr1..Tr6 per state (state 1 first), and the θe range each starts at.
+    /// The published Tr1..Tr6 per state (state 1 first), and the θe range each starts at.
     const PRINTED_TR: [[u8; 6]; 12] = [
         [0, 0, 1, 1, 0, 0],
         [0, 0, 1, 1, 1, 0],

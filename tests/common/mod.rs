@@ -24,7 +24,7 @@ pub fn engine<C: Controller>(
     )
 }
 
-/// `u`, `v`, `w` leg states from SPEC letters V / G / F.
+/// `u`, `v`, `w` leg states from the table letters V / G / F.
 pub fn pattern(s: &str) -> Pattern {
     let leg = |c: char| match c {
         'V' => LegState::High,
@@ -73,7 +73,7 @@ impl Controller for Switch {
     }
 }
 
-/// SPEC §1 back-EMF of every phase for the sinusoidal shape, computed independently.
+/// The back-EMF of every phase for the sinusoidal shape, computed independently.
 pub fn spec_emf(p: &PlantParams, theta_e: f64, omega_m: f64) -> Abc<f64> {
     let m = &p.motor;
     let k = m.flux_linkage_wb * (m.poles as f64 / 2.0) * omega_m;
