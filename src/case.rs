@@ -186,9 +186,7 @@ impl Case {
         match &self.config {
             None => Ok(DriveConfig::default()),
             Some(serde_json::Value::String(p)) => {
-                let text =
-                    std::fs::read_to_string(p).map_err(|e| CaseError(format!("{p}: {e}")))?;
-                DriveConfig::from_toml(&text).map_err(|e| CaseError(format!("{p}: {e}")))
+                DriveConfig::from_file(std::path::Path::new(p)).map_err(CaseError)
             }
             Some(v @ serde_json::Value::Object(_)) => {
                 let table: toml::Table = serde_json::from_value(v.clone())

@@ -45,6 +45,13 @@ impl DriveConfig {
         Ok(c)
     }
 
+    /// Reads and validates the config file at `path`; an error names the file.
+    pub fn from_file(path: &std::path::Path) -> Result<Self, String> {
+        let named = |e: &dyn std::fmt::Display| format!("{}: {e}", path.display());
+        let text = std::fs::read_to_string(path).map_err(|e| named(&e))?;
+        Self::from_toml(&text).map_err(|e| named(&e))
+    }
+
     /// The config as a TOML document (every key, with its value).
     pub fn to_toml(&self) -> String {
         // Serialising plain structs of numbers, strings and tables cannot fail.

@@ -498,36 +498,34 @@ fn bad_outputs_and_oversized_traces_are_refused_before_the_run() {
 #[test]
 fn run_defaults_to_the_configs_strategy_and_speed() {
     let (json, cfg) = (tmp("defaults.json"), tmp("defaults.toml"));
-    let out = bench(&[
-        "run",
-        "--duration-s",
-        "0.2",
-        "--json",
-        json.to_str().unwrap(),
-    ]);
-    assert!(out.status.code().is_some(), "{}", text(&out.stderr));
-    let r = read_json(&json);
-    assert_eq!(r["scenario"]["strategy"], "twelve-step-df");
-    assert_eq!(r["summary"]["speed_ref_rpm"], 3000.0);
-
+    // A short run with `extra` options; its record's strategy and speed command.
+    let record = |extra: &[&str]| {
+        let mut args = vec![
+            "run",
+            "--duration-s",
+            "0.2",
+            "--json",
+            json.to_str().unwrap(),
+        ];
+        args.extend_from_slice(extra);
+        let out = bench(&args);
+        assert!(out.status.code().is_some(), "{}", text(&out.stderr));
+        let r = read_json(&json);
+        (
+            r["scenario"]["strategy"].clone(),
+            r["summary"]["speed_ref_rpm"].clone(),
+        )
+    };
+    assert_eq!(record(&[]), ("twelve-step-df".into(), 3000.0.into()));
     std::fs::write(
         &cfg,
         "[control]\nspeed_ref_rpm = 2000.0\n[strategy]\nname = \"six-step-120\"\n",
     )
     .unwrap();
-    let out = bench(&[
-        "run",
-        "--config",
-        cfg.to_str().unwrap(),
-        "--duration-s",
-        "0.2",
-        "--json",
-        json.to_str().unwrap(),
-    ]);
-    assert!(out.status.code().is_some(), "{}", text(&out.stderr));
-    let r = read_json(&json);
-    assert_eq!(r["scenario"]["strategy"], "six-step-120");
-    assert_eq!(r["summary"]["speed_ref_rpm"], 2000.0);
+    assert_eq!(
+        record(&["--config", cfg.to_str().unwrap()]),
+        ("six-step-120".into(), 2000.0.into())
+    );
 }
 
 #[test]

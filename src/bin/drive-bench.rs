@@ -529,11 +529,7 @@ fn calibrate_lm(cfg: &DriveConfig, json: Option<&Path>) -> Result<i32, String> {
 }
 
 fn load_config(path: Option<&Path>) -> Result<DriveConfig, String> {
-    let Some(p) = path else {
-        return Ok(DriveConfig::default());
-    };
-    let text = std::fs::read_to_string(p).map_err(|e| format!("{}: {e}", p.display()))?;
-    DriveConfig::from_toml(&text).map_err(|e| format!("{}: {e}", p.display()))
+    path.map_or_else(|| Ok(DriveConfig::default()), DriveConfig::from_file)
 }
 
 /// Above this a trace needs --large-trace \[bytes\].
