@@ -145,31 +145,18 @@ pub fn to_csv(rows: &[Row]) -> String {
             }
         }
     }
-    let mut out = names
-        .iter()
-        .map(|n| quoted(n))
-        .collect::<Vec<_>>()
-        .join(",");
-    out.push('\n');
+    let mut w = csv::Writer::from_writer(Vec::new());
+    // Writing to memory cannot fail; every record has the header's length.
+    let _ = w.write_record(&names);
     for r in &rows {
         let cell = |name: &str| match r.iter().find(|(k, _)| k == name).map(|(_, v)| v) {
             None | Some(Value::Null) => String::new(),
-            Some(Value::String(s)) => quoted(s),
-            Some(v) => quoted(&v.to_string()),
+            Some(Value::String(s)) => s.clone(),
+            Some(v) => v.to_string(),
         };
-        out.push_str(&names.iter().map(|n| cell(n)).collect::<Vec<_>>().join(","));
-        out.push('\n');
+        let _ = w.write_record(names.iter().map(|n| cell(n)));
     }
-    out
-}
-
-/// A CSV field, quoted when it has a comma, a quote or a line break.
-fn quoted(s: &str) -> String {
-    if s.contains([',', '"', '\n', '\r']) {
-        format!("\"{}\"", s.replace('"', "\"\""))
-    } else {
-        s.to_string()
-    }
+    String::from_utf8(w.into_inner().unwrap_or_default()).unwrap_or_default()
 }
 
 /// The keys and values of a serialised struct, in field order (a `serde_json::Map` would
@@ -307,5 +294,25 @@ mod tests {
                 .unwrap()
                 .starts_with("0,0,800.0,0.02,2.4,six-step-120,800.0,")
         );
+    }
+
+    #[test]
+    fn a_text_with_commas_quotes_and_line_breaks_reads_back_from_the_csv() {
+        let cases = parse(r#"[{"speed_rpm": 800, "duration_s": 0.02}]"#).unwrap();
+        let sc = scenarios(&cases, &[]).unwrap();
+        let mut row = run_row(0, &cases[0], &sc[0]).unwrap();
+        let nasty = "lost sync, then \"restarted\"\nat 1 s";
+        row.summary.verdict_reason = nasty.into();
+        let text = to_csv(&[row]);
+        let mut r = csv::Reader::from_reader(text.as_bytes());
+        let at = r
+            .headers()
+            .unwrap()
+            .iter()
+            .position(|h| h == "verdict_reason")
+            .unwrap();
+        let rec = r.records().next().unwrap().unwrap();
+        assert_eq!(&rec[at], nasty);
+        assert!(r.records().next().is_none());
     }
 }

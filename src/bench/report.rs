@@ -340,37 +340,44 @@ struct ResultsRecord<'a> {
 }
 
 fn grid_csv(c: &Comparison) -> String {
-    let names: Vec<&str> = GRID_COLUMNS.iter().map(|c| c.0).collect();
-    let mut s = names.join(",") + "\n";
+    let mut w = csv::Writer::from_writer(Vec::new());
+    let mut rows = vec![
+        GRID_COLUMNS
+            .iter()
+            .map(|c| c.0.to_string())
+            .collect::<Vec<_>>(),
+    ];
     for g in &c.grid {
         let m = &g.summary;
-        let _ = writeln!(
-            s,
-            "{},{},{},\"{}\",{:.3},{:.3},{:.6e},{:.6e},{:.6e},{:.5},{:.5},{:.5},{},{},{},{:.3},{:.3},{},{:.3},{:.3},{:.2}",
-            g.variant,
-            m.speed_ref_rpm,
-            m.verdict,
-            m.verdict_reason.replace('"', "\"\""),
-            m.speed_mean_rpm,
-            m.speed_ripple_rpm,
-            m.torque_mean_nm,
-            m.torque_ripple_nm,
-            m.torque_ripple_lf_nm,
-            m.current_rms_a,
-            m.current_peak_a,
-            m.commutation_peak_a,
-            m.restarts,
-            m.chip_running,
-            m.commutations,
-            m.commutation_error_deg_mean,
-            m.commutation_error_deg_max,
-            m.forced_crossings,
-            m.sim_s,
-            m.wall_s,
-            m.realtime_factor
-        );
+        rows.push(vec![
+            g.variant.to_string(),
+            m.speed_ref_rpm.to_string(),
+            m.verdict.to_string(),
+            m.verdict_reason.clone(),
+            format!("{:.3}", m.speed_mean_rpm),
+            format!("{:.3}", m.speed_ripple_rpm),
+            format!("{:.6e}", m.torque_mean_nm),
+            format!("{:.6e}", m.torque_ripple_nm),
+            format!("{:.6e}", m.torque_ripple_lf_nm),
+            format!("{:.5}", m.current_rms_a),
+            format!("{:.5}", m.current_peak_a),
+            format!("{:.5}", m.commutation_peak_a),
+            m.restarts.to_string(),
+            m.chip_running.to_string(),
+            m.commutations.to_string(),
+            format!("{:.3}", m.commutation_error_deg_mean),
+            format!("{:.3}", m.commutation_error_deg_max),
+            m.forced_crossings.to_string(),
+            format!("{:.3}", m.sim_s),
+            format!("{:.3}", m.wall_s),
+            format!("{:.2}", m.realtime_factor),
+        ]);
     }
-    s
+    for r in &rows {
+        // Writing to memory cannot fail.
+        let _ = w.write_record(r);
+    }
+    String::from_utf8(w.into_inner().unwrap_or_default()).unwrap_or_default()
 }
 
 fn speed_step_chart(c: &Comparison) -> String {

@@ -1,4 +1,10 @@
 //! Minimal SVG line charts: stacked panels sharing one x axis, no dependencies.
+//!
+//! Why not plotters: its SVG backend lays text out with a font library (the default `ttf`
+//! feature loads system fonts through font-kit, which a CI image or a user's machine may
+//! not have), and what these charts need beyond lines and axes would still be ours:
+//! decimation of long traces, step drawing of logic signals, colours fixed per strategy
+//! across charts, and labels that wrap. The SVG is inlined in report.html as it is written.
 
 use std::fmt::Write;
 
