@@ -13,6 +13,9 @@
 //! ]
 //! ```
 //!
+//! **Paths.** A `config` or `scenario` path in a sweep file is taken relative to the file's
+//! folder (see [`resolve_paths`]), so a sweep runs the same from any working directory.
+//!
 //! **Seeds.** A sweep always sets the comparator-noise seed: case `k` (counted from 0)
 //! runs with its own `seed` when it gives one, else with seed `k`. So a case's result
 //! does not depend on the order in which the cases happen to run, and a row can be run
@@ -25,6 +28,7 @@ use crate::case::{Case, CaseError};
 use crate::scenario::{RunError, Scenario, Summary, run};
 use serde::ser::{Serialize, SerializeMap, Serializer};
 use serde_json::Value;
+use std::path::Path;
 use strategies::PluginLibrary;
 
 /// The seed case `index` runs with (see the module doc).
@@ -51,6 +55,20 @@ pub fn parse(text: &str) -> Result<Vec<Case>, CaseError> {
         .enumerate()
         .map(|(k, x)| Case::from_value(x).map_err(|e| CaseError(format!("case {k}: {e}"))))
         .collect()
+}
+
+/// Makes the relative `config` and `scenario` paths of `cases` relative to `dir`, the
+/// folder of the sweep file that names them; absolute paths and tables are kept.
+pub fn resolve_paths(cases: &mut [Case], dir: &Path) {
+    for c in cases {
+        for v in [&mut c.config, &mut c.scenario].into_iter().flatten() {
+            if let Value::String(p) = v
+                && Path::new(p.as_str()).is_relative()
+            {
+                *p = dir.join(p.as_str()).to_string_lossy().into_owned();
+            }
+        }
+    }
 }
 
 /// The scenario of case `index`, seeded as a sweep seeds it, with every value checked.

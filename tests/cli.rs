@@ -529,6 +529,45 @@ fn run_defaults_to_the_configs_strategy_and_speed() {
 }
 
 #[test]
+fn a_sweep_file_names_its_config_and_scenario_relative_to_its_own_folder() {
+    let dir = tmp("sweep-folder");
+    std::fs::create_dir_all(&dir).unwrap();
+    std::fs::write(
+        dir.join("base.toml"),
+        "[strategy]\nname = \"six-step-120\"\n",
+    )
+    .unwrap();
+    std::fs::write(
+        dir.join("short.toml"),
+        "duration_s = 0.02\nspeed_rpm = 900\n",
+    )
+    .unwrap();
+    let file = dir.join("cases.json");
+    std::fs::write(
+        &file,
+        r#"[{"config": "base.toml", "speed_rpm": 800, "duration_s": 0.02},
+            {"scenario": "short.toml"}]"#,
+    )
+    .unwrap();
+    let json = tmp("relative-rows.json");
+    // Run from elsewhere: the test's working directory is the package root.
+    let out = bench(&[
+        "sweep",
+        file.to_str().unwrap(),
+        "--json",
+        json.to_str().unwrap(),
+    ]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let rows = read_json(&json);
+    assert_eq!(rows[0]["strategy"], "six-step-120");
+    assert_eq!(rows[1]["speed_ref_rpm"], 900.0);
+    // The documented case file runs as it is.
+    let out = bench(&["sweep", "examples/sweep.json"]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    assert_eq!(text(&out.stdout).lines().count(), 4);
+}
+
+#[test]
 fn a_sweep_gives_each_case_the_summary_run_gives_it_with_the_case_s_seed() {
     let (file, json, csv) = (tmp("cases.json"), tmp("rows.json"), tmp("rows.csv"));
     std::fs::write(

@@ -96,7 +96,7 @@ fn docs_stand_alone() {
     assert!(broken.is_empty(), "broken links: {broken:?}");
 }
 
-/// The README shows the examples the test command runs, as they are (without their `//!`
+/// The READMEs show the examples the test command runs, as they are (without their `//!`
 /// header), so its code cannot rot.
 #[test]
 fn readme_examples_are_the_files() {
@@ -114,5 +114,10 @@ fn readme_examples_are_the_files() {
     assert!(
         readme.contains(&format!("```python\n{python}```")),
         "README.md must show examples/fmu/quickstart.py as it is"
+    );
+    let cases = read("examples/sweep.json");
+    assert!(
+        read("python/README.md").contains(&format!("```json\n{cases}```")),
+        "python/README.md must show examples/sweep.json as it is"
     );
 }

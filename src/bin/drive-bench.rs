@@ -439,7 +439,8 @@ fn run_sweep(
     // Every case is checked, and the outputs, before the first run.
     let named = |e: String| format!("{}: {e}", file.display());
     let text = std::fs::read_to_string(file).map_err(|e| named(e.to_string()))?;
-    let cases = sweep::parse(&text).map_err(|e| named(e.0))?;
+    let mut cases = sweep::parse(&text).map_err(|e| named(e.0))?;
+    sweep::resolve_paths(&mut cases, file.parent().unwrap_or(Path::new("")));
     let scenarios = sweep::scenarios(&cases, plugins).map_err(|e| named(e.0))?;
     let outputs: Vec<&Path> = csv.iter().chain(&json).map(|p| p.as_path()).collect();
     check_outputs(&outputs)?;
