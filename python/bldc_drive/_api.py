@@ -5,7 +5,7 @@ from __future__ import annotations
 import json
 import math
 import os
-from typing import Any, Dict, Mapping, Optional, Union
+from typing import Any, Dict, List, Mapping, Optional, Sequence, Union
 
 import numpy as np
 
@@ -23,9 +23,18 @@ def default_config() -> Dict[str, Any]:
     return json.loads(_native.default_config())
 
 
-def strategies() -> list:
-    """The names of the built-in strategies (``drive-bench list``)."""
-    return list(_native.strategies())
+def strategies(plugins: Sequence[Union[str, "os.PathLike[str]"]] = ()) -> list:
+    """The names of the built-in strategies (``drive-bench list``), then those of the
+    plugin libraries at the paths ``plugins`` (``drive-bench --plugin PATH list``)."""
+    return list(_native.strategies(plugin_paths(plugins)))
+
+
+def plugin_paths(plugins: Sequence[Union[str, "os.PathLike[str]"]]) -> List[str]:
+    """Plugin paths as absolute strings: a Dask worker may run in another folder. A
+    single path rather than a sequence of them is a ValueError."""
+    if isinstance(plugins, (str, bytes, os.PathLike)):
+        raise ValueError(f"plugins = {plugins!r} (rule: a list of paths, e.g. [path])")
+    return [os.path.abspath(os.fspath(p)) for p in plugins]
 
 
 class Result:
@@ -74,6 +83,7 @@ def simulate(
     scenario: Union[None, str, "os.PathLike[str]", Mapping[str, Any]] = None,
     seed: Optional[int] = None,
     trace_every_us: Optional[float] = None,
+    plugins: Sequence[Union[str, "os.PathLike[str]"]] = (),
 ) -> Result:
     """Runs one drive from standstill and judges it, as ``drive-bench run`` does.
 
@@ -90,6 +100,8 @@ def simulate(
             the load, so ``speed_rpm``, ``duration_s`` and ``load_nm`` are not given.
         seed: comparator-noise seed (overrides ``sensing.seed`` and the scenario's).
         trace_every_us: with a period [µs], the whole run is traced at it.
+        plugins: paths of plugin libraries (see the project's README, "Plugins"), whose
+            strategies ``strategy`` may then name.
 
     Returns:
         A ``Result``.
@@ -113,7 +125,7 @@ def simulate(
         "seed": seed,
         "trace_every_us": trace_every_us,
     }
-    record, columns = _native.simulate(case_json(case))
+    record, columns = _native.simulate(case_json(case), plugin_paths(plugins))
     trace = None
     if columns is not None:
         arrays = {name: np.frombuffer(data, dtype=dtype) for name, dtype, data in columns}

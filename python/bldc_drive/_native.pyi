@@ -7,15 +7,18 @@ VERSION: str
 def default_config() -> str:
     """The built-in config as a JSON object."""
 
-def strategies() -> List[str]:
-    """The built-in strategies' names."""
+def strategies(plugins: List[str] = ...) -> List[str]:
+    """The built-in strategies' names, then the plugins' (paths of plugin libraries)."""
 
-def simulate(case_json: str) -> Tuple[str, Optional[List[Tuple[str, str, bytes]]]]:
-    """Runs a case (a JSON object): the run's record as JSON, and with
-    ``trace_every_us`` the trace's columns as (name, NumPy dtype, bytes)."""
+def simulate(
+    case_json: str, plugins: List[str] = ...
+) -> Tuple[str, Optional[List[Tuple[str, str, bytes]]]]:
+    """Runs a case (a JSON object), whose strategy may be one of ``plugins``: the run's
+    record as JSON, and with ``trace_every_us`` the trace's columns as (name, NumPy
+    dtype, bytes)."""
 
-def sweep_seeds(cases_json: str) -> List[int]:
+def sweep_seeds(cases_json: str, plugins: List[str] = ...) -> List[int]:
     """Checks every case of a JSON list; each case's seed."""
 
-def sweep_row(index: int, case_json: str) -> str:
+def sweep_row(index: int, case_json: str, plugins: List[str] = ...) -> str:
     """Runs case ``index`` of a sweep; its row as a JSON object."""

@@ -7,18 +7,19 @@ import os
 from typing import Any, List, Mapping, Optional, Sequence, Union
 
 from . import _native
-from ._api import case_json
+from ._api import case_json, plugin_paths
 
 
-def _row(index: int, case: str) -> dict:
+def _row(index: int, case: str, plugins: List[str]) -> dict:
     """Runs case ``index`` (JSON) on a worker; its row as a dict in column order."""
-    return json.loads(_native.sweep_row(index, case))
+    return json.loads(_native.sweep_row(index, case, plugins))
 
 
 def sweep(
     cases: Sequence[Mapping[str, Any]],
     client: Union[None, str, Any] = None,
     parquet: Union[None, str, "os.PathLike[str]"] = None,
+    plugins: Sequence[Union[str, "os.PathLike[str]"]] = (),
 ):
     """Runs every case on a Dask cluster and gathers the results into one DataFrame.
 
@@ -30,6 +31,9 @@ def sweep(
             machine (one single-threaded worker process a core) for this
             call alone.
         parquet: a path to also write the DataFrame to as Parquet (needs pyarrow).
+        plugins: paths of plugin libraries whose strategies the cases may name; every
+            worker loads them from the same absolute path, so on a remote cluster they
+            must be there too.
 
     Returns:
         A pandas DataFrame, one row per case in the order of ``cases``: ``case`` (the
@@ -49,34 +53,35 @@ def sweep(
 
     texts = [case_json(c) for c in cases]
     # Checks all cases (and their seeds) at once, before a cluster is started.
-    _native.sweep_seeds("[" + ",".join(texts) + "]")
+    libs = plugin_paths(plugins)
+    _native.sweep_seeds("[" + ",".join(texts) + "]", libs)
     if parquet is not None:
         _check_parquet(parquet)
-    rows = _gather(texts, client)
+    rows = _gather(texts, libs, client)
     frame = pd.DataFrame(rows)
     if parquet is not None:
         frame.to_parquet(parquet)
     return frame
 
 
-def _gather(texts: List[str], client: Union[None, str, Any]) -> List[dict]:
+def _gather(texts: List[str], libs: List[str], client: Union[None, str, Any]) -> List[dict]:
     from dask.distributed import Client, LocalCluster
 
     if client is None:
         # The dashboard on a free port: 8787 may be taken by another cluster.
         with LocalCluster(n_workers=os.cpu_count() or 1, threads_per_worker=1, dashboard_address=":0") as cluster:
             with Client(cluster) as c:
-                return _map(c, texts)
+                return _map(c, texts, libs)
     if isinstance(client, str):
         with Client(client) as c:
-            return _map(c, texts)
-    return _map(client, texts)
+            return _map(c, texts, libs)
+    return _map(client, texts, libs)
 
 
-def _map(client: Any, texts: List[str]) -> List[dict]:
+def _map(client: Any, texts: List[str], libs: List[str]) -> List[dict]:
     # pure=False: a case submitted twice runs twice rather than being taken for the same
     # task; the results come back in the order of the cases.
-    futures = client.map(_row, list(range(len(texts))), texts, pure=False)
+    futures = client.map(_row, list(range(len(texts))), texts, plugins=libs, pure=False)
     return client.gather(futures)
 
 

@@ -10,7 +10,7 @@ use bldc_drive::DriveConfig;
 use bldc_drive::case::{Case, CaseError};
 use bldc_drive::scenario::{self, TraceRow};
 use bldc_drive::scenario_file::RunRecord;
-use bldc_drive::strategies::StrategyName;
+use bldc_drive::strategies::{PluginLibrary, StrategyName};
 use bldc_drive::sweep;
 use pyo3::exceptions::{PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
@@ -23,10 +23,27 @@ fn default_config() -> String {
     DriveConfig::default().to_json()
 }
 
-/// The built-in strategies' names.
+/// The built-in strategies' names, then those of the plugins at `plugins` (paths).
 #[pyfunction]
-fn strategies() -> Vec<String> {
-    StrategyName::ALL.iter().map(|n| n.to_string()).collect()
+#[pyo3(signature = (plugins=Vec::new()))]
+fn strategies(plugins: Vec<String>) -> PyResult<Vec<String>> {
+    let libs = load(&plugins)?;
+    Ok(StrategyName::ALL
+        .iter()
+        .map(|n| n.to_string())
+        .chain(libs.iter().map(|l| l.name().to_string()))
+        .collect())
+}
+
+/// The plugin libraries at `paths`, each checked as `drive-bench --plugin` checks it.
+fn load(paths: &[String]) -> PyResult<Vec<PluginLibrary>> {
+    paths
+        .iter()
+        .map(|p| {
+            PluginLibrary::load(std::path::Path::new(p))
+                .map_err(|e| PyValueError::new_err(format!("plugins: {e}")))
+        })
+        .collect()
 }
 
 /// A trace's columns: (name, NumPy dtype, little-endian bytes), in the CSV's order.
@@ -37,10 +54,16 @@ type PyColumns<'py> = Vec<(String, &'static str, Bound<'py, PyBytes>)>;
 
 /// Runs the case given as a JSON object; returns the run's record as JSON (what
 /// `drive-bench run --json` writes) and the trace's columns when `trace_every_us` is set.
+/// `plugins` are paths of plugin libraries whose strategies the case may name.
 #[pyfunction]
-fn simulate<'py>(py: Python<'py>, case_json: &str) -> PyResult<(String, Option<PyColumns<'py>>)> {
+#[pyo3(signature = (case_json, plugins=Vec::new()))]
+fn simulate<'py>(
+    py: Python<'py>,
+    case_json: &str,
+    plugins: Vec<String>,
+) -> PyResult<(String, Option<PyColumns<'py>>)> {
     let case = parse_case(case_json)?;
-    let sc = case.scenario(&[]).map_err(value_error)?;
+    let sc = case.scenario(&load(&plugins)?).map_err(value_error)?;
     // The GIL is released while simulating: other Python threads run meanwhile.
     let out = py.detach(|| {
         guarded(|| {
@@ -67,9 +90,10 @@ fn simulate<'py>(py: Python<'py>, case_json: &str) -> PyResult<(String, Option<P
 
 /// Checks every case of a sweep (a JSON list) before any runs; returns each case's seed.
 #[pyfunction]
-fn sweep_seeds(cases_json: &str) -> PyResult<Vec<u64>> {
+#[pyo3(signature = (cases_json, plugins=Vec::new()))]
+fn sweep_seeds(cases_json: &str, plugins: Vec<String>) -> PyResult<Vec<u64>> {
     let cases = sweep::parse(cases_json).map_err(value_error)?;
-    sweep::scenarios(&cases, &[]).map_err(value_error)?;
+    sweep::scenarios(&cases, &load(&plugins)?).map_err(value_error)?;
     Ok(cases
         .iter()
         .enumerate()
@@ -79,9 +103,15 @@ fn sweep_seeds(cases_json: &str) -> PyResult<Vec<u64>> {
 
 /// Runs case `index` of a sweep (a JSON object) and returns its row as a JSON object.
 #[pyfunction]
-fn sweep_row(py: Python<'_>, index: usize, case_json: &str) -> PyResult<String> {
+#[pyo3(signature = (index, case_json, plugins=Vec::new()))]
+fn sweep_row(
+    py: Python<'_>,
+    index: usize,
+    case_json: &str,
+    plugins: Vec<String>,
+) -> PyResult<String> {
     let case = parse_case(case_json)?;
-    let sc = sweep::scenario_of(index, &case, &[]).map_err(value_error)?;
+    let sc = sweep::scenario_of(index, &case, &load(&plugins)?).map_err(value_error)?;
     py.detach(|| {
         guarded(|| {
             let row =

@@ -39,6 +39,17 @@ def drive_bench() -> pathlib.Path:
     return max(found, key=lambda p: p.stat().st_mtime)
 
 
+@pytest.fixture(scope="session")
+def example_plugin() -> pathlib.Path:
+    """The example plugin library (strategy ``example-twelve-step-df``), built by the
+    test command with the Rust tests' profile."""
+    target = pathlib.Path(os.environ.get("CARGO_TARGET_DIR") or ROOT / "target")
+    lib = target / "debug" / "libexample_plugin.so"
+    if not lib.is_file():
+        pytest.fail(f"{lib} not found: build it (cargo build --profile test -p example-plugin)")
+    return lib
+
+
 def cli(binary, *args, check=True):
     """Runs drive-bench; the completed process."""
     p = subprocess.run([str(binary), *map(str, args)], capture_output=True, text=True)

@@ -1,6 +1,7 @@
 """simulate() against drive-bench: the same summary, trace and errors for the same run."""
 
 import math
+import os
 import threading
 import tomllib
 
@@ -151,3 +152,28 @@ def test_numpy_scalars_and_paths_are_accepted():
     b = bldc_drive.simulate(strategy="six-step-120", speed_rpm=1500.0, duration_s=0.1, seed=2)
     assert without_wall_clock(a.summary) == without_wall_clock(b.summary)
     assert set(WALL_CLOCK) <= set(a.summary)
+
+
+def test_a_plugin_strategy_runs_as_drive_bench_runs_it(drive_bench, tmp_path, example_plugin):
+    name = "example-twelve-step-df"
+    assert bldc_drive.strategies(plugins=[example_plugin])[-1] == name
+    assert name not in bldc_drive.strategies()
+    run = dict(strategy=name, speed_rpm=2500, duration_s=0.3, seed=3)
+    want = cli_json(drive_bench, tmp_path, "--plugin", example_plugin, *cli_args(run))
+    got = bldc_drive.simulate(**run, plugins=[str(example_plugin)])
+    assert without_wall_clock(got.summary) == without_wall_clock(want["summary"])
+    assert got.summary["strategy"] == name
+
+
+def test_bad_plugins_raise_a_value_error_naming_them(tmp_path):
+    fake = tmp_path / "libnot_a_plugin.so"
+    fake.write_text("not a library")
+    for plugins in ([fake], [tmp_path / "missing.so"]):
+        with pytest.raises(ValueError, match=r"plugins: .*" + os.path.basename(plugins[0])):
+            bldc_drive.simulate(strategy="six-step-120", speed_rpm=1000, duration_s=0.01, plugins=plugins)
+    # One path where a list of them is asked for.
+    with pytest.raises(ValueError, match=r"rule: a list of paths"):
+        bldc_drive.strategies(plugins=str(fake))
+    # A plugin's strategy without the plugin is an unknown strategy.
+    with pytest.raises(ValueError, match="example-twelve-step-df"):
+        bldc_drive.simulate(strategy="example-twelve-step-df", speed_rpm=1000, duration_s=0.01)

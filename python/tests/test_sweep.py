@@ -83,6 +83,16 @@ def test_a_scheduler_address_is_used_as_it_is(cluster):
     assert list(frame["case"]) == [0, 1] and list(frame["strategy"]) == ["twelve-step-df", "six-step-120"]
 
 
+def test_workers_load_the_plugins_a_sweep_names(cluster, example_plugin):
+    case = dict(strategy="example-twelve-step-df", speed_rpm=2500, duration_s=0.3)
+    with distributed.Client(cluster) as client:
+        frame = bldc_drive.sweep([case, CASES[1]], client=client, plugins=[example_plugin])
+    alone = bldc_drive.simulate(**case, seed=0, plugins=[example_plugin]).summary
+    got = frame.iloc[0].to_dict()
+    assert all(got[k] == v for k, v in without_wall_clock(alone).items() if not isinstance(v, list)), got
+    assert list(frame["strategy"]) == ["example-twelve-step-df", "six-step-120"]
+
+
 def test_a_bad_case_fails_before_any_runs():
     cases = CASES[:2] + [dict(strategy="six-step-120", speed_rpm=1000, config={"motor": {"inertia_kgm2": -1.0}})]
     t = time.perf_counter()
