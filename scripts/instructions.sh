@@ -4,7 +4,8 @@
 # CI's VMs varies by a third between days for the same binary, the count is repeatable: it
 # is the figure to compare builds by.
 # Usage: scripts/instructions.sh [speed_rpm [strategy [load_nm]]], e.g. `1500`,
-# `3000 six-step-120`, `3000 twelve-step-df 2.5e-3`. Honours CARGO_TARGET_DIR.
+# `3000 six-step-120`, `3000 twelve-step-df 1e-3` (a load the default drive carries; at
+# 2.5e-3 N·m it stalls and runs backwards). Honours CARGO_TARGET_DIR.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 if ! command -v valgrind >/dev/null 2>&1; then
