@@ -166,6 +166,8 @@ struct Lookahead {
     s1: Solution,
     /// The derivative at the end.
     f1: State,
+    /// sin θ, cos θ at the end (see `BldcPlant::end_angle`).
+    sc1: (f64, f64),
     event: Option<Phase>,
 }
 
@@ -217,6 +219,10 @@ pub struct BldcPlant {
     base_hint: (f64, f64, f64),
     /// The derivative at the committed state, while the dynamics stay as they were.
     fsal: Option<(State, State)>,
+    /// The last committed step's end angle with its sine and cosine (from the step's
+    /// rotation): the next step starting at that angle takes them as its base instead of a
+    /// fresh `sin_cos`.
+    end_angle: Option<(f64, f64, f64)>,
     /// Latest clock edge reported as a sensing stop: changes up to it have been sampled.
     reported: Ticks,
     stats: PlantStats,
@@ -273,6 +279,7 @@ impl BldcPlant {
             lookahead: None,
             base_hint: (0.0, 0.0, 1.0),
             fsal: None,
+            end_angle: None,
             stats: PlantStats::default(),
             params,
         })
@@ -466,8 +473,13 @@ impl BldcPlant {
     /// The derivative and the network's solution at one state (a step's end, where both
     /// are needed): the solution's di/dt and powers make the derivative, so the back-EMF
     /// and the network are evaluated once.
-    fn deriv_and_solution(&self, x: &State, base: (f64, f64, f64)) -> (State, Solution) {
-        let f = emf::shape_with(&self.shape, x[THETA], emf::sin_cos_near(x[THETA], base));
+    fn deriv_and_solution(
+        &self,
+        x: &State,
+        base: (f64, f64, f64),
+    ) -> (State, Solution, (f64, f64)) {
+        let sc = emf::sin_cos_near(x[THETA], base);
+        let f = emf::shape_with(&self.shape, x[THETA], sc);
         let k = self.lambda * self.pp * x[OMEGA];
         let s = self.circuit.solve_planned(
             &self.form().2,
@@ -478,6 +490,7 @@ impl BldcPlant {
         (
             self.assemble(&dynamic(x), &f, s.di.to_array(), &s.powers),
             s,
+            sc,
         )
     }
 
@@ -711,9 +724,15 @@ impl BldcPlant {
     }
 
     /// Earliest h in (0, h_full] where phase p's event function reaches zero, for the
-    /// step from `x0` whose derivative there is `k1`.
-    fn locate(&mut self, x0: &State, k1: State, h_full: f64, p: Phase) -> f64 {
-        let base = Self::base(x0);
+    /// step from `x0` (angle base `base`) whose derivative there is `k1`.
+    fn locate(
+        &mut self,
+        x0: &State,
+        k1: State,
+        h_full: f64,
+        p: Phase,
+        base: (f64, f64, f64),
+    ) -> f64 {
         let g = |pl: &Self, h: f64| {
             let x = pl.integrate_from(x0, h, base, &k1);
             let s = pl.solve_near(&x, base);
@@ -843,10 +862,10 @@ impl BldcPlant {
                 if done {
                     h
                 } else {
-                    self.locate(x0, *d.f0, h_full, p)
+                    self.locate(x0, *d.f0, h_full, p, b0)
                 }
             } else {
-                self.locate(x0, *d.f0, bracket[k], p)
+                self.locate(x0, *d.f0, bracket[k], p, b0)
             };
             if first.is_none_or(|(h0, _, _)| h < h0) {
                 first = Some((h, p, at));
@@ -983,17 +1002,18 @@ impl BldcPlant {
         self.stats.steps += 1;
     }
 
-    /// Commits a step ending at `t1` with derivative `f1` there (handling its diode event,
-    /// if any).
+    /// Commits a step ending at `t1` with derivative `f1` and sin θ, cos θ `sc1` there
+    /// (handling its diode event, if any).
     fn finish_step(
         &mut self,
         x1: State,
-        f1: State,
+        (f1, sc1): (State, (f64, f64)),
         t0: f64,
         t1: f64,
         s1: Solution,
         event: Option<Phase>,
     ) -> Option<PlantStop> {
+        self.end_angle = Some((x1[THETA], sc1.0, sc1.1));
         self.commit(x1, t1);
         if let Some(p) = event {
             if self.modes.get(p).is_diode() {
@@ -1092,7 +1112,7 @@ impl BldcPlant {
             return Some(PlantStop::Reached);
         }
         let la = self.lookahead.take()?;
-        self.finish_step(la.x1, la.f1, la.t0, la.t1, la.s1, la.event)
+        self.finish_step(la.x1, (la.f1, la.sc1), la.t0, la.t1, la.s1, la.event)
     }
 
     /// Ends any lookahead at the present time, before the dynamics change.
@@ -1183,7 +1203,13 @@ impl BldcPlant {
                 t1 = t1.min(e.seconds());
             }
             let x0 = self.x;
-            let b0 = Self::base(&x0);
+            // The last step's end angle, unless the state moved since (a wrap of θ, a
+            // settled lookahead, a set rotor): a fresh sin_cos then re-anchors the chain of
+            // rotations, at least once a turn.
+            let b0 = match self.end_angle {
+                Some(e) if e.0 == x0[THETA] => e,
+                _ => Self::base(&x0),
+            };
             self.base_hint = b0;
             // First same as last: the derivative at the end of the previous step, when
             // nothing has changed the dynamics since.
@@ -1214,7 +1240,7 @@ impl BldcPlant {
             };
             let f0 = k1;
             let mut x1 = self.integrate_from(&x0, t1 - t0, b0, &k1);
-            let (mut f1, mut s1) = self.deriv_and_solution(&x1, b0);
+            let (mut f1, mut s1, mut sc1) = self.deriv_and_solution(&x1, b0);
             let mut event = None;
             let step = Dense {
                 x0: &x0,
@@ -1227,7 +1253,7 @@ impl BldcPlant {
                 // The step to the event is integrated (not interpolated), so the energy
                 // integrals stay consistent with the currents.
                 x1 = at.unwrap_or_else(|| self.integrate_from(&x0, h, b0, &f0));
-                (f1, s1) = self.deriv_and_solution(&x1, b0);
+                (f1, s1, sc1) = self.deriv_and_solution(&x1, b0);
                 t1 = t0 + h;
                 event = Some(p);
             }
@@ -1255,6 +1281,7 @@ impl BldcPlant {
                     x1,
                     s1,
                     f1,
+                    sc1,
                     event,
                 });
                 if let Some(e) = sample.filter(|e| e.seconds() <= t_end + 1e-15) {
@@ -1265,7 +1292,7 @@ impl BldcPlant {
                 self.serve_at(until);
                 return PlantStop::Reached;
             }
-            if let Some(stop) = self.finish_step(x1, f1, t0, t1, s1, event) {
+            if let Some(stop) = self.finish_step(x1, (f1, sc1), t0, t1, s1, event) {
                 return stop;
             }
         }
