@@ -5,6 +5,7 @@
 //! current flows through a diode, which is exactly the effect dead time has on a real bridge.
 
 use crate::bridge::{Gates, ShootThrough};
+use crate::state::{Persist, Reader, Writer};
 use crate::time::Ticks;
 
 /// Dead-time gate driver for the six switches.
@@ -81,6 +82,24 @@ impl GateDriver {
             .copied()
             .min()
             .unwrap_or(Ticks::NEVER)
+    }
+}
+
+/// The gates and pending turn-ons; the dead time is a parameter.
+impl Persist for GateDriver {
+    fn save(&self, w: &mut Writer) {
+        self.commanded.save(w);
+        self.effective.save(w);
+        self.pending_on.save(w);
+    }
+    fn restore(&mut self, r: &mut Reader) -> Result<(), String> {
+        r.field("commanded", &mut self.commanded)?;
+        r.field("effective", &mut self.effective)?;
+        r.field("pending_on", &mut self.pending_on)?;
+        for g in [self.commanded, self.effective] {
+            g.validate().map_err(|e| format!(" {e}"))?;
+        }
+        Ok(())
     }
 }
 

@@ -296,7 +296,9 @@ impl Model {
         let before_init = matches!(self.phase, Phase::Instantiated | Phase::InitializationMode);
         self.values[vr as usize] = x;
         match (v.role, self.drive.as_mut()) {
-            (Role::Input(input), Some(d)) if !before_init => d.set_input(vr, input, x),
+            (Role::Input(input), Some(d)) if !before_init => {
+                d.apply(input, x);
+            }
             _ => self.drive = None,
         }
     }

@@ -618,6 +618,153 @@ impl crate::Strategy for Chip {
     fn try_clone(&self) -> Result<Box<dyn crate::Strategy>, String> {
         Ok(Box::new(self.clone()))
     }
+    fn save_state(&self, w: &mut drive_core::Writer) {
+        drive_core::Persist::save(self, w);
+    }
+    fn restore_state(&mut self, r: &mut drive_core::Reader) -> Result<(), String> {
+        drive_core::Persist::restore(self, r)
+    }
+}
+
+drive_core::persist_fields!(ChipStatus {
+    mode,
+    state,
+    flag,
+    zd,
+    zdf,
+    linear,
+    duty,
+    speed_est_rpm,
+    current_ref_a,
+    current_integrator,
+    restarts,
+    crossings,
+    forced_crossings
+});
+
+/// Off, aligning (with its step and end), running, given up: codes 0..=3.
+impl drive_core::Persist for Mode {
+    fn save(&self, w: &mut drive_core::Writer) {
+        // Fixed size: the alignment's step and end, zero in the other modes.
+        let (code, step, until) = match *self {
+            Mode::Off => (0, 0, Ticks::ZERO),
+            Mode::Aligning { step, until } => (1, step, until),
+            Mode::Running => (2, 0, Ticks::ZERO),
+            Mode::GaveUp => (3, 0, Ticks::ZERO),
+        };
+        w.u8(code);
+        drive_core::Persist::save(&step, w);
+        drive_core::Persist::save(&until, w);
+    }
+    fn restore(&mut self, r: &mut drive_core::Reader) -> Result<(), String> {
+        let code = r.u8()?;
+        let (mut step, mut until) = (0u8, Ticks::ZERO);
+        r.field("step", &mut step)?;
+        r.field("until", &mut until)?;
+        *self = match code {
+            0 => Mode::Off,
+            1 if usize::from(step) < ALIGN_PATTERNS.len() => Mode::Aligning { step, until },
+            1 => {
+                return Err(format!(
+                    "step = {step} (rule: an alignment step 0..{})",
+                    ALIGN_PATTERNS.len()
+                ));
+            }
+            2 => Mode::Running,
+            3 => Mode::GaveUp,
+            k => return Err(format!("= {k} (rule: a mode code 0..=3)")),
+        };
+        Ok(())
+    }
+}
+
+/// The chip's registers, counters and sub-blocks; its parameters (control, strategy,
+/// pole pairs, ADC scale, carrier) are never read back.
+impl drive_core::Persist for Chip {
+    fn save(&self, w: &mut drive_core::Writer) {
+        use drive_core::Persist as P;
+        P::save(&self.table, w);
+        P::save(&self.run_table, w);
+        P::save(&self.pending_table, w);
+        P::save(&self.guard, w);
+        P::save(&self.shifter, w);
+        P::save(&self.speed, w);
+        P::save(&self.speed_pi, w);
+        P::save(&self.current_pi, w);
+        P::save(&self.supervisor, w);
+        P::save(&self.measurements_seen, w);
+        P::save(&self.linear_seen, w);
+        P::save(&self.start, w);
+        P::save(&self.start_since, w);
+        P::save(&self.reset, w);
+        P::save(&self.speed_ref_rpm, w);
+        P::save(&self.mode, w);
+        P::save(&self.restarts, w);
+        P::save(&self.fg, w);
+        P::save(&self.fg_since, w);
+        P::save(&self.cv, w);
+        P::save(&self.i_ref, w);
+        P::save(&self.linear, w);
+        P::save(&self.zd, w);
+        P::save(&self.zdf, w);
+        P::save(&self.next_pi, w);
+        P::save(&self.crossings, w);
+        P::save(&self.pattern, w);
+    }
+    fn restore(&mut self, r: &mut drive_core::Reader) -> Result<(), String> {
+        r.field("table", &mut self.table)?;
+        r.field("run_table", &mut self.run_table)?;
+        r.field("pending_table", &mut self.pending_table)?;
+        let six = self.name == StrategyName::SixStep120;
+        for t in [Some(self.table), Some(self.run_table), self.pending_table]
+            .into_iter()
+            .flatten()
+        {
+            if six != matches!(t, Table::SixStep) {
+                return Err(format!(
+                    "table {t:?} (rule: the table kind of strategy `{}`)",
+                    self.name.as_str()
+                ));
+            }
+        }
+        r.field("guard", &mut self.guard)?;
+        r.field("shifter", &mut self.shifter)?;
+        r.field("speed", &mut self.speed)?;
+        r.field("speed_pi", &mut self.speed_pi)?;
+        r.field("current_pi", &mut self.current_pi)?;
+        r.field("supervisor", &mut self.supervisor)?;
+        r.field("measurements_seen", &mut self.measurements_seen)?;
+        r.field("linear_seen", &mut self.linear_seen)?;
+        r.field("start", &mut self.start)?;
+        r.field("start_since", &mut self.start_since)?;
+        r.field("reset", &mut self.reset)?;
+        r.field("speed_ref_rpm", &mut self.speed_ref_rpm)?;
+        let max = crate::params::SPEED_CMD_MAX_RPM;
+        if !(0.0..=max).contains(&self.speed_ref_rpm) {
+            return Err(format!(
+                "speed_ref_rpm = {} (rule: 0..={max} rpm)",
+                self.speed_ref_rpm
+            ));
+        }
+        r.field("mode", &mut self.mode)?;
+        r.field("restarts", &mut self.restarts)?;
+        r.field("fg", &mut self.fg)?;
+        r.field("fg_since", &mut self.fg_since)?;
+        r.field("cv", &mut self.cv)?;
+        if self.cv > self.top {
+            return Err(format!(
+                "cv = {} (rule: at most the carrier top {})",
+                self.cv, self.top
+            ));
+        }
+        r.field("i_ref", &mut self.i_ref)?;
+        r.field("linear", &mut self.linear)?;
+        r.field("zd", &mut self.zd)?;
+        r.field("zdf", &mut self.zdf)?;
+        r.field("next_pi", &mut self.next_pi)?;
+        r.field("crossings", &mut self.crossings)?;
+        r.field("pattern", &mut self.pattern)
+    }
 }
 
 impl Controller for Chip {
