@@ -425,8 +425,13 @@ impl PluginStrategy {
     /// why there are none.
     fn plugin_state(&self) -> Result<Vec<u8>, String> {
         let named = |m: String| {
+            let rule = if m.contains("(rule:") {
+                ""
+            } else {
+                " (rule: a plugin strategy's save succeeds for its drive to be serialized)"
+            };
             format!(
-                "plugin `{}` ({}): save: {m}",
+                "plugin `{}` ({}): save: {m}{rule}",
                 self.lib.name,
                 self.lib.path.display()
             )
