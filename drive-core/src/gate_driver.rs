@@ -5,7 +5,6 @@
 //! current flows through a diode, which is exactly the effect dead time has on a real bridge.
 
 use crate::bridge::{Gates, ShootThrough};
-use crate::state::{Persist, Reader, Writer};
 use crate::time::Ticks;
 
 /// Dead-time gate driver for the six switches.
@@ -85,17 +84,12 @@ impl GateDriver {
     }
 }
 
-/// The gates and pending turn-ons; the dead time is a parameter.
-impl Persist for GateDriver {
-    fn save(&self, w: &mut Writer) {
-        self.commanded.save(w);
-        self.effective.save(w);
-        self.pending_on.save(w);
-    }
-    fn restore(&mut self, r: &mut Reader) -> Result<(), String> {
-        r.field("commanded", &mut self.commanded)?;
-        r.field("effective", &mut self.effective)?;
-        r.field("pending_on", &mut self.pending_on)?;
+// The gates and pending turn-ons; the dead time is a parameter.
+crate::persist_fields!(GateDriver { commanded, effective, pending_on } then GateDriver::check_restored);
+
+impl GateDriver {
+    /// Restored gates never short a leg.
+    fn check_restored(&self) -> Result<(), String> {
         for g in [self.commanded, self.effective] {
             g.validate().map_err(|e| format!(" {e}"))?;
         }

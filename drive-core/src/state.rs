@@ -125,9 +125,24 @@ pub trait Persist {
     fn restore(&mut self, r: &mut Reader) -> Result<(), String>;
 }
 
-/// Implements [`Persist`] for a struct by the listed fields, in order.
+/// Implements [`Persist`] for a struct by the listed fields, in order; with
+/// `then check`, `check(&self) -> Result<(), String>` judges the restored values together.
 #[macro_export]
 macro_rules! persist_fields {
+    ($ty:ty { $($f:ident),* $(,)? } then $check:path) => {
+        impl $crate::state::Persist for $ty {
+            fn save(&self, w: &mut $crate::state::Writer) {
+                $( $crate::state::Persist::save(&self.$f, w); )*
+            }
+            fn restore(
+                &mut self,
+                r: &mut $crate::state::Reader,
+            ) -> ::std::result::Result<(), ::std::string::String> {
+                $( r.field(stringify!($f), &mut self.$f)?; )*
+                $check(self)
+            }
+        }
+    };
     ($ty:ty { $($f:ident),* $(,)? }) => {
         impl $crate::state::Persist for $ty {
             fn save(&self, w: &mut $crate::state::Writer) {

@@ -678,43 +678,42 @@ impl drive_core::Persist for Mode {
     }
 }
 
-/// The chip's registers, counters and sub-blocks; its parameters (control, strategy,
-/// pole pairs, ADC scale, carrier) are never read back.
-impl drive_core::Persist for Chip {
-    fn save(&self, w: &mut drive_core::Writer) {
-        use drive_core::Persist as P;
-        P::save(&self.table, w);
-        P::save(&self.run_table, w);
-        P::save(&self.pending_table, w);
-        P::save(&self.guard, w);
-        P::save(&self.shifter, w);
-        P::save(&self.speed, w);
-        P::save(&self.speed_pi, w);
-        P::save(&self.current_pi, w);
-        P::save(&self.supervisor, w);
-        P::save(&self.measurements_seen, w);
-        P::save(&self.linear_seen, w);
-        P::save(&self.start, w);
-        P::save(&self.start_since, w);
-        P::save(&self.reset, w);
-        P::save(&self.speed_ref_rpm, w);
-        P::save(&self.mode, w);
-        P::save(&self.restarts, w);
-        P::save(&self.fg, w);
-        P::save(&self.fg_since, w);
-        P::save(&self.cv, w);
-        P::save(&self.i_ref, w);
-        P::save(&self.linear, w);
-        P::save(&self.zd, w);
-        P::save(&self.zdf, w);
-        P::save(&self.next_pi, w);
-        P::save(&self.crossings, w);
-        P::save(&self.pattern, w);
-    }
-    fn restore(&mut self, r: &mut drive_core::Reader) -> Result<(), String> {
-        r.field("table", &mut self.table)?;
-        r.field("run_table", &mut self.run_table)?;
-        r.field("pending_table", &mut self.pending_table)?;
+// The chip's registers, counters and sub-blocks; its parameters (control, strategy,
+// pole pairs, ADC scale, carrier) are never read back.
+drive_core::persist_fields!(Chip {
+    table,
+    run_table,
+    pending_table,
+    guard,
+    shifter,
+    speed,
+    speed_pi,
+    current_pi,
+    supervisor,
+    measurements_seen,
+    linear_seen,
+    start,
+    start_since,
+    reset,
+    speed_ref_rpm,
+    mode,
+    restarts,
+    fg,
+    fg_since,
+    cv,
+    i_ref,
+    linear,
+    zd,
+    zdf,
+    next_pi,
+    crossings,
+    pattern
+} then Chip::check_restored);
+
+impl Chip {
+    /// Restored registers agree with the parameters: tables of the strategy's kind, a
+    /// speed command the register holds, a voltage command within the carrier.
+    fn check_restored(&self) -> Result<(), String> {
         let six = self.name == StrategyName::SixStep120;
         for t in [Some(self.table), Some(self.run_table), self.pending_table]
             .into_iter()
@@ -727,18 +726,6 @@ impl drive_core::Persist for Chip {
                 ));
             }
         }
-        r.field("guard", &mut self.guard)?;
-        r.field("shifter", &mut self.shifter)?;
-        r.field("speed", &mut self.speed)?;
-        r.field("speed_pi", &mut self.speed_pi)?;
-        r.field("current_pi", &mut self.current_pi)?;
-        r.field("supervisor", &mut self.supervisor)?;
-        r.field("measurements_seen", &mut self.measurements_seen)?;
-        r.field("linear_seen", &mut self.linear_seen)?;
-        r.field("start", &mut self.start)?;
-        r.field("start_since", &mut self.start_since)?;
-        r.field("reset", &mut self.reset)?;
-        r.field("speed_ref_rpm", &mut self.speed_ref_rpm)?;
         let max = crate::params::SPEED_CMD_MAX_RPM;
         if !(0.0..=max).contains(&self.speed_ref_rpm) {
             return Err(format!(
@@ -746,24 +733,13 @@ impl drive_core::Persist for Chip {
                 self.speed_ref_rpm
             ));
         }
-        r.field("mode", &mut self.mode)?;
-        r.field("restarts", &mut self.restarts)?;
-        r.field("fg", &mut self.fg)?;
-        r.field("fg_since", &mut self.fg_since)?;
-        r.field("cv", &mut self.cv)?;
         if self.cv > self.top {
             return Err(format!(
                 "cv = {} (rule: at most the carrier top {})",
                 self.cv, self.top
             ));
         }
-        r.field("i_ref", &mut self.i_ref)?;
-        r.field("linear", &mut self.linear)?;
-        r.field("zd", &mut self.zd)?;
-        r.field("zdf", &mut self.zdf)?;
-        r.field("next_pi", &mut self.next_pi)?;
-        r.field("crossings", &mut self.crossings)?;
-        r.field("pattern", &mut self.pattern)
+        Ok(())
     }
 }
 

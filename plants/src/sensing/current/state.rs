@@ -3,35 +3,27 @@
 //! pieces. Gains, time constant and converter are parameters, never read back.
 
 use super::{CurrentSense, Pieces};
-use drive_core::state::{Persist, Reader, Writer, check};
-use drive_core::{TICK_S, Ticks, persist_fields};
+use drive_core::state::check;
+use drive_core::{Ticks, persist_fields};
 
 persist_fields!(Pieces { seg, n, y_end });
 
-impl Persist for CurrentSense {
-    fn save(&self, w: &mut Writer) {
-        self.y.save(w);
-        self.results.save(w);
-        self.next_sample.save(w);
-        self.last.save(w);
-    }
-
-    fn restore(&mut self, r: &mut Reader) -> Result<(), String> {
-        r.field("y", &mut self.y)?;
-        r.field("results", &mut self.results)?;
-        r.field("next_sample", &mut self.next_sample)?;
-        r.field("last", &mut self.last)?;
-        let n = self.last.0.n;
-        check((1..=self.last.0.seg.len()).contains(&n), || {
-            format!(
-                "cur.last.n = {n} (rule: 1..={} pieces)",
-                self.last.0.seg.len()
-            )
-        })
-    }
-}
+// The filter, pipeline, next sample and last update; the rest are parameters.
+persist_fields!(CurrentSense {
+    y,
+    results,
+    next_sample,
+    last
+} then CurrentSense::check_pieces);
 
 impl CurrentSense {
+    fn check_pieces(&self) -> Result<(), String> {
+        let n = self.last.0.n;
+        check((1..=self.last.0.seg.len()).contains(&n), || {
+            format!("last.n = {n} (rule: 1..={} pieces)", self.last.0.seg.len())
+        })
+    }
+
     /// Checks a restored chain against the plant's time `t` \[s\]: the next sample lies
     /// within the longest step (`longest` ticks) and a conversion of it, so no update
     /// takes more samples than a step would; the pipeline holds no more than it can.
@@ -48,7 +40,6 @@ impl CurrentSense {
                 self.results.len()
             )
         })?;
-        let _ = TICK_S;
         Ok(())
     }
 }
