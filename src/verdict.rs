@@ -499,6 +499,17 @@ impl Witness {
     }
 }
 
+// The streak so far; the tolerance and the length needed are the rule's.
+drive_core::persist_fields!(SyncStreak { streak });
+// The judgement so far; the rule is a parameter.
+drive_core::persist_fields!(LiveVerdict {
+    streak,
+    started,
+    lost,
+    mean_rpm,
+    last_t_s
+});
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -120,7 +120,7 @@ fn a_library_without_the_entry_symbol_is_refused() {
     let m = e.to_string();
     assert!(matches!(e, PluginError::NoEntry { .. }), "{m}");
     assert!(
-        m.contains("bldc_strategy_entry") && m.contains("libm.so.6") && m.contains("host ABI 1.0"),
+        m.contains("bldc_strategy_entry") && m.contains("libm.so.6") && m.contains("host ABI 1.1"),
         "{m}"
     );
 }
@@ -154,7 +154,7 @@ fn a_newer_abi_major_is_refused_with_both_versions() {
         "{e}"
     );
     assert!(
-        e.to_string().contains("ABI 2.0 (plugin) vs 1.0 (host)"),
+        e.to_string().contains("ABI 2.1 (plugin) vs 1.1 (host)"),
         "{e}"
     );
 }
@@ -206,4 +206,75 @@ fn a_shoot_through_command_is_refused_by_the_host() {
     );
     // 64 000 ticks = 1.28 ms: the first step that misbehaves.
     assert!(m.contains("t = 0.00128"), "{m}");
+}
+
+/// The engine's state by value (plant, engine and strategy).
+fn saved(e: &bldc_drive::drive::DriveEngine) -> Result<Vec<u8>, String> {
+    use bldc_drive::drive_core::Persist;
+    let mut w = bldc_drive::drive_core::Writer::new();
+    e.save(&mut w);
+    w.finish()
+}
+
+fn restored(lib: &PluginLibrary, bytes: &[u8]) -> Result<bldc_drive::drive::DriveEngine, String> {
+    use bldc_drive::drive_core::Persist;
+    let mut e = build_plugin(&DriveConfig::default(), lib).unwrap();
+    e.restore(&mut bldc_drive::drive_core::Reader::new(bytes))?;
+    Ok(e)
+}
+
+#[test]
+fn a_plugin_drive_saved_by_value_continues_bit_identically() {
+    let lib = PluginLibrary::load(&example()).unwrap();
+    let mut e = build_plugin(&DriveConfig::default(), &lib).unwrap();
+    run_to(&mut e, 0.9, |_, _| {}).unwrap();
+    let bytes = saved(&e).unwrap();
+    let mut copy = restored(&lib, &bytes).unwrap();
+    assert_eq!(saved(&copy).unwrap(), bytes);
+    run_to(&mut e, 1.0, |_, _| {}).unwrap();
+    run_to(&mut copy, 1.0, |_, _| {}).unwrap();
+    assert_eq!(saved(&copy).unwrap(), saved(&e).unwrap());
+    let o = (e.plant.observe(), copy.plant.observe());
+    assert_eq!(o.0.speed_rpm.to_bits(), o.1.speed_rpm.to_bits());
+    assert!(o.0.speed_rpm > 1000.0, "running: {} rpm", o.0.speed_rpm);
+}
+
+#[test]
+fn a_plugin_that_cannot_save_or_misbehaves_in_save_or_restore_is_an_error_not_a_crash() {
+    for (mode, says) in [
+        ("minor-0", "strategy-abi 1.0, which has no save"),
+        ("save-panic", "plugin panicked: deliberate panic in save"),
+        ("save-huge", "rule: at most"),
+    ] {
+        let e = with_mode(mode, || {
+            let lib = PluginLibrary::load(&misbehaving()).unwrap();
+            let mut e = build_plugin(&DriveConfig::default(), &lib).unwrap();
+            run_to(&mut e, 0.01, |_, _| {}).unwrap();
+            saved(&e).unwrap_err()
+        });
+        assert!(
+            e.contains("plugin `misbehaving`") && e.contains(says) && e.contains("rule"),
+            "{mode}: {e}"
+        );
+    }
+    let e = with_mode("restore-panic", || {
+        let lib = PluginLibrary::load(&misbehaving()).unwrap();
+        let e = build_plugin(&DriveConfig::default(), &lib).unwrap();
+        let bytes = saved(&e).unwrap();
+        restored(&lib, &bytes).err().unwrap()
+    });
+    assert!(e.contains("restore: plugin panicked"), "{e}");
+    // Bytes the plugin does not accept: its own refusal, named.
+    let e = with_mode("", || {
+        let lib = PluginLibrary::load(&misbehaving()).unwrap();
+        let e = build_plugin(&DriveConfig::default(), &lib).unwrap();
+        let mut bytes = saved(&e).unwrap();
+        let n = bytes.len();
+        bytes[n - 1] = b'X';
+        restored(&lib, &bytes).err().unwrap()
+    });
+    assert!(
+        e.contains("plugin `misbehaving`") && e.contains("not a state"),
+        "{e}"
+    );
 }

@@ -13,6 +13,13 @@ pub enum Phase {
     W,
 }
 
+/// Phase u: a placeholder to restore a saved value into (see [`crate::state`]).
+impl Default for Phase {
+    fn default() -> Self {
+        Phase::U
+    }
+}
+
 impl Phase {
     /// The phases in order u, v, w.
     pub const ALL: [Phase; 3] = [Phase::U, Phase::V, Phase::W];

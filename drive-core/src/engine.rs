@@ -12,6 +12,7 @@ use crate::control::{Command, Controller, Sensed};
 use crate::gate_driver::GateDriver;
 use crate::plant::{Plant, PlantStop, Watch};
 use crate::pwm::{Carrier, PwmScheme};
+use crate::state::{Persist, Reader, Writer, check};
 use crate::time::Ticks;
 
 /// Why a step ended.
@@ -298,6 +299,69 @@ impl<P: Plant, C: Controller, S: PwmScheme> Engine<P, C, S> {
             self.plant.set_gates(&after);
         }
         Ok(())
+    }
+}
+
+/// The engine's clocks, command and gate driver, then the plant's and the controller's
+/// state; the scheme, carrier, dead time and sample period are parameters.
+impl<P: Plant + Persist, C: Controller + Persist, S> Persist for Engine<P, C, S> {
+    fn save(&self, w: &mut Writer) {
+        self.driver.save(w);
+        self.now.save(w);
+        self.cmd.save(w);
+        self.pwm_on.save(w);
+        self.wake.save(w);
+        self.started.save(w);
+        self.last_tick.save(w);
+        self.plant.save(w);
+        self.controller.save(w);
+    }
+    fn restore(&mut self, r: &mut Reader) -> Result<(), String> {
+        r.field("driver", &mut self.driver)?;
+        r.field("now", &mut self.now)?;
+        r.field("cmd", &mut self.cmd)?;
+        r.field("pwm_on", &mut self.pwm_on)?;
+        r.field("wake", &mut self.wake)?;
+        r.field("started", &mut self.started)?;
+        r.field("last_tick", &mut self.last_tick)?;
+        let now = self.now;
+        check(self.now < Ticks::NEVER, || {
+            format!("now = {} (rule: a reachable instant)", now.0)
+        })?;
+        check(self.wake >= self.now || !self.started, || {
+            format!("wake = {} (rule: not before now = {})", self.wake.0, now.0)
+        })?;
+        check(self.last_tick.is_none_or(|t| t <= now), || {
+            format!(
+                "last_tick = {:?} (rule: not after now = {})",
+                self.last_tick, now.0
+            )
+        })?;
+        check(self.cmd.duty <= self.carrier.top, || {
+            format!(
+                "cmd.duty = {} (rule: at most the carrier top {})",
+                self.cmd.duty, self.carrier.top
+            )
+        })?;
+        let late = now + self.driver.dead_time();
+        check(
+            self.driver.next_release() <= late || self.driver.next_release() == Ticks::NEVER,
+            || {
+                format!(
+                    "driver.pending_on (rule: turn-ons within the dead time after now = {})",
+                    now.0
+                )
+            },
+        )?;
+        r.field("plant", &mut self.plant)?;
+        let t = self.plant.time_s();
+        check((t - now.seconds()).abs() <= 0.5 * crate::TICK_S, || {
+            format!(
+                "plant time {t} s (rule: the engine's instant {} s)",
+                now.seconds()
+            )
+        })?;
+        r.field("controller", &mut self.controller)
     }
 }
 

@@ -84,6 +84,19 @@ impl GateDriver {
     }
 }
 
+// The gates and pending turn-ons; the dead time is a parameter.
+crate::persist_fields!(GateDriver { commanded, effective, pending_on } then GateDriver::check_restored);
+
+impl GateDriver {
+    /// Restored gates never short a leg.
+    fn check_restored(&self) -> Result<(), String> {
+        for g in [self.commanded, self.effective] {
+            g.validate().map_err(|e| format!(" {e}"))?;
+        }
+        Ok(())
+    }
+}
+
 fn flatten(g: &Gates) -> [bool; 6] {
     [g.high.u, g.low.u, g.high.v, g.low.v, g.high.w, g.low.w]
 }

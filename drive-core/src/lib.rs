@@ -10,6 +10,7 @@ pub mod error;
 pub mod gate_driver;
 pub mod plant;
 pub mod pwm;
+pub mod state;
 pub mod time;
 
 pub use abc::{Abc, Phase};
@@ -19,4 +20,5 @@ pub use engine::{Engine, EngineError, StopReason};
 pub use error::ParamError;
 pub use plant::{Plant, PlantStop, Watch};
 pub use pwm::{Carrier, DutyCounts, PwmScheme};
+pub use state::{Persist, Reader, Writer};
 pub use time::{TICK_S, Ticks, clocks};

@@ -1,87 +1,17 @@
 //! The running drive inside an instance: the engine, the inputs applied to it, and the
-//! record of every input change and communication point that makes it replayable. The
-//! record is run-length encoded: a master stepping at a fixed size adds nothing to it.
+//! live verdict; its dynamic state is saved and restored by value for serialized states.
 
 use crate::variables::{Input, Output, Role, Text, table};
 use bldc_drive::DriveConfig;
 use bldc_drive::drive::{DriveEngine, build, build_plugin};
-use bldc_drive::drive_core::{EngineError, ParamError, StopReason, Ticks};
+use bldc_drive::drive_core::state::{Persist, Reader, Writer};
+use bldc_drive::drive_core::{EngineError, ParamError, StopReason, Ticks, persist_fields};
 use bldc_drive::plants::Load;
 use bldc_drive::strategies::Mode;
 use bldc_drive::strategies::PluginLibrary;
 use bldc_drive::strategies::params::SPEED_CMD_MAX_RPM;
 use bldc_drive::verdict::{LiveVerdict, Verdict, VerdictRule};
 use std::path::{Path, PathBuf};
-
-/// One thing that happened to a drive after it was built; replaying the list on a drive
-/// built from the same values reproduces it bit for bit (the simulation is deterministic).
-#[derive(Copy, Clone, Debug, PartialEq)]
-pub enum Event {
-    /// Ran the engine to master ticks `first`, `first + stride`, … (`count` >= 1
-    /// communication points, evenly spaced).
-    Run {
-        /// The first communication point \[ticks\].
-        first: u64,
-        /// The spacing \[ticks\] (0 while `count` is 1).
-        stride: u64,
-        /// How many.
-        count: u64,
-    },
-    /// Input variable `vr` changed to this value.
-    Set(u32, f64),
-}
-
-impl Event {
-    /// The last communication point of a run.
-    pub fn last_tick(&self) -> Option<u64> {
-        match *self {
-            Event::Run {
-                first,
-                stride,
-                count,
-            } => stride
-                .checked_mul(count.checked_sub(1)?)
-                .and_then(|d| first.checked_add(d)),
-            Event::Set(..) => None,
-        }
-    }
-}
-
-/// Checks a record before any of it is replayed: runs well formed, communication points
-/// never going back, the last one at `now`, every input change a valid value of an input.
-/// The replay then does only the work the record describes, up to tick `now`.
-pub fn check_record(events: &[Event], now: u64) -> Result<(), String> {
-    let mut at = 0u64;
-    for e in events {
-        match *e {
-            Event::Run {
-                first,
-                stride,
-                count,
-            } => {
-                let last = e
-                    .last_tick()
-                    .filter(|_| count > 0 && (count > 1 || stride == 0));
-                let Some(last) = last.filter(|&l| first >= at && l <= now) else {
-                    return Err(format!(
-                        "recorded run {first} + k·{stride}, k < {count} (rule: count >= 1, ticks never going back and ending by tick {now})"
-                    ));
-                };
-                at = last;
-            }
-            Event::Set(vr, x) => match table().get(vr as usize).map(|v| (v, v.role)) {
-                Some((v, Role::Input(i))) => check_input(v.name, i, x)?,
-                _ => return Err(format!("recorded input {vr} is not an input")),
-            },
-        }
-    }
-    if at != now {
-        return Err(format!(
-            "the record ends at tick {at}, the engine at {now} (rule: they agree)"
-        ));
-    }
-    Ok(())
-}
 
 /// The rule of an input's value, as `fmi2Set*` checks it before applying anything.
 pub fn check_input(name: &str, input: Input, x: f64) -> Result<(), String> {
@@ -100,7 +30,7 @@ pub fn check_input(name: &str, input: Input, x: f64) -> Result<(), String> {
     Ok(())
 }
 
-/// Engine + applied inputs + history.
+/// Engine + applied inputs + live verdict.
 pub struct Drive {
     /// The plant and the chip.
     pub engine: DriveEngine,
@@ -108,8 +38,6 @@ pub struct Drive {
     pub built_from: Vec<f64>,
     /// The String values it was built from (the plugin path as set).
     pub built_from_texts: Vec<String>,
-    /// Everything since.
-    pub events: Vec<Event>,
     /// Inputs in force: speed command, load torque, enable.
     applied: [f64; 3],
     /// The commutation against the true rotor, for the `in_sync` output.
@@ -124,6 +52,8 @@ struct Sync {
     live: LiveVerdict,
     last_state: u8,
 }
+
+persist_fields!(Sync { live, last_state });
 
 impl Sync {
     fn new(engine: &DriveEngine) -> Self {
@@ -298,7 +228,6 @@ impl Drive {
             engine,
             built_from: values.to_vec(),
             built_from_texts: texts.to_vec(),
-            events: Vec::new(),
             // What `build` leaves in force: the config's speed command, no load, start held.
             applied: [cfg.control.speed_ref_rpm, 0.0, 1.0],
         };
@@ -310,20 +239,13 @@ impl Drive {
         Ok(d)
     }
 
-    /// Applies input `vr` = `x` if it changed, and records it.
-    pub(crate) fn set_input(&mut self, vr: u32, input: Input, x: f64) {
-        if self.apply(input, x) {
-            self.events.push(Event::Set(vr, x));
-        }
-    }
-
     /// Hands a changed input to the plant or the chip; false if nothing changed.
     ///
     /// `enable` false drops the chip's start input and holds its reset (bridge off, restart
     /// count cleared, a given-up drive revived); true releases reset and raises start, so
     /// the chip debounces it and aligns again. The controller is woken so it sees the
     /// change even if it was asleep waiting for start.
-    fn apply(&mut self, input: Input, x: f64) -> bool {
+    pub(crate) fn apply(&mut self, input: Input, x: f64) -> bool {
         let x = match input {
             Input::SpeedRef => clamp_speed(x),
             Input::Enable => f64::from(u8::from(x != 0.0)),
@@ -349,65 +271,8 @@ impl Drive {
         true
     }
 
-    /// Runs the engine to master tick `end` and records the communication point.
+    /// Runs the engine to master tick `end` (a communication point).
     pub fn run_to(&mut self, end: Ticks) -> Result<(), EngineError> {
-        self.record_run(end.0);
-        let r = self.advance(end);
-        if r.is_err() {
-            // The engine stopped short: record where, so a state taken now replays to the
-            // same failure (see `replay`).
-            self.unrecord_run();
-            self.record_run(self.engine.now().0);
-        }
-        r
-    }
-
-    /// Takes the last communication point back out of the record.
-    fn unrecord_run(&mut self) {
-        match self.events.last_mut() {
-            Some(Event::Run { stride, count, .. }) if *count > 1 => {
-                *count -= 1;
-                if *count == 1 {
-                    *stride = 0;
-                }
-            }
-            Some(Event::Run { .. }) => {
-                self.events.pop();
-            }
-            _ => {}
-        }
-    }
-
-    /// Adds a communication point to the record, extending the last run when it can.
-    fn record_run(&mut self, end: u64) {
-        if let Some(Event::Run {
-            first,
-            stride,
-            count,
-        }) = self.events.last_mut()
-        {
-            if *count == 1 && end >= *first {
-                *stride = end - *first;
-                *count = 2;
-                return;
-            }
-            let next = stride
-                .checked_mul(*count)
-                .and_then(|d| first.checked_add(d));
-            if next == Some(end) {
-                *count += 1;
-                return;
-            }
-        }
-        self.events.push(Event::Run {
-            first: end,
-            stride: 0,
-            count: 1,
-        });
-    }
-
-    /// Runs the engine to `end` without recording it.
-    fn advance(&mut self, end: Ticks) -> Result<(), EngineError> {
         let sync = &mut self.sync;
         self.engine.run_until(end, |e, reason| {
             if !matches!(reason, StopReason::Diode | StopReason::Sensing) {
@@ -415,40 +280,6 @@ impl Drive {
             }
         })?;
         self.sync.end(&self.engine);
-        Ok(())
-    }
-
-    /// Replays a record checked by [`check_record`] on a drive just built, and keeps it as
-    /// this drive's record. With `failed` (a state taken after the engine stopped with an
-    /// error), the last run must end in that error again.
-    pub fn replay(&mut self, events: Vec<Event>, failed: bool) -> Result<(), String> {
-        let last = events.len().saturating_sub(1);
-        for (i, e) in events.iter().enumerate() {
-            match *e {
-                Event::Run {
-                    first,
-                    stride,
-                    count,
-                } => {
-                    // Running again to the tick already reached does nothing, so a run of
-                    // zero stride is one call however long it is.
-                    let n = if stride == 0 { 1 } else { count };
-                    for k in 0..n {
-                        let t = Ticks(first + k * stride); // checked: <= now
-                        match self.advance(t) {
-                            Err(_) if failed && i == last && k + 1 == n => {}
-                            r => r.map_err(|e| e.to_string())?,
-                        }
-                    }
-                }
-                Event::Set(vr, x) => {
-                    if let Some(Role::Input(i)) = table().get(vr as usize).map(|v| v.role) {
-                        self.apply(i, x);
-                    }
-                }
-            }
-        }
-        self.events = events;
         Ok(())
     }
 
@@ -476,7 +307,6 @@ impl Drive {
             engine: bldc_drive::drive::try_clone(&self.engine)?,
             built_from: self.built_from.clone(),
             built_from_texts: self.built_from_texts.clone(),
-            events: self.events.clone(),
             applied: self.applied,
             sync: self.sync,
         })
@@ -518,6 +348,38 @@ impl Drive {
                 }
             };
         }
+    }
+}
+
+/// The inputs in force, the live verdict and the engine; the drive is built from the
+/// variable values first (see [`crate::state`]), so no parameter is read back.
+impl Persist for Drive {
+    fn save(&self, w: &mut Writer) {
+        self.applied.save(w);
+        self.sync.save(w);
+        self.engine.save(w);
+    }
+
+    fn restore(&mut self, r: &mut Reader) -> Result<(), String> {
+        r.field("applied", &mut self.applied)?;
+        for v in table() {
+            if let Role::Input(i) = v.role {
+                let x = self.applied[slot(i)];
+                let ok = match i {
+                    Input::SpeedRef => clamp_speed(x) == x,
+                    Input::Enable => x == 0.0 || x == 1.0,
+                    Input::LoadTorque => check_input(v.name, i, x).is_ok(),
+                };
+                if !ok {
+                    return Err(format!(
+                        "applied `{}` = {x} (rule: a value the input takes, as fmi2Set* applies it)",
+                        v.name
+                    ));
+                }
+            }
+        }
+        r.field("sync", &mut self.sync)?;
+        r.field("engine", &mut self.engine)
     }
 }
 

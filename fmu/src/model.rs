@@ -130,6 +130,15 @@ impl Model {
         }
     }
 
+    /// Whether the status of the last step (`fmi2Get*Status`, named `call`) may be asked:
+    /// once a step can have been taken, not before initialization ends.
+    pub fn status_query(&self, call: &str) -> Result<(), Fault> {
+        self.require(
+            &[Phase::StepComplete, Phase::Terminated, Phase::Error],
+            call,
+        )
+    }
+
     /// `fmi2SetupExperiment`.
     pub fn setup_experiment(&mut self, start: f64, stop: Option<f64>) -> Result<(), Fault> {
         self.require(&[Phase::Instantiated], "fmi2SetupExperiment")?;
@@ -296,7 +305,9 @@ impl Model {
         let before_init = matches!(self.phase, Phase::Instantiated | Phase::InitializationMode);
         self.values[vr as usize] = x;
         match (v.role, self.drive.as_mut()) {
-            (Role::Input(input), Some(d)) if !before_init => d.set_input(vr, input, x),
+            (Role::Input(input), Some(d)) if !before_init => {
+                d.apply(input, x);
+            }
             _ => self.drive = None,
         }
     }
@@ -453,6 +464,25 @@ mod tests {
         assert!(m.setup_experiment(0.0, None).is_err());
         assert!(m.enter_initialization().is_err());
         assert_eq!(m.phase, Phase::StepComplete);
+    }
+
+    #[test]
+    fn step_status_is_refused_before_initialization_ends() {
+        let mut m = Model::new();
+        for phase in [Phase::Instantiated, Phase::InitializationMode] {
+            m.phase = phase;
+            let Err(Fault::Error(msg)) = m.status_query("fmi2GetRealStatus") else {
+                panic!("a status query in {phase:?} was accepted")
+            };
+            assert!(
+                msg.contains("fmi2GetRealStatus") && msg.contains("rule"),
+                "{msg}"
+            );
+        }
+        for phase in [Phase::StepComplete, Phase::Terminated, Phase::Error] {
+            m.phase = phase;
+            m.status_query("fmi2GetStatus").unwrap();
+        }
     }
 
     #[test]

@@ -1,4 +1,4 @@
-"""fmpy-driven call sequences: state save/restore and serialize replay, reset and rerun,
+"""fmpy-driven call sequences: state save/restore and serialize/deserialize, reset and rerun,
 two instances in one process, wrong GUID, out-of-order and bad calls (each answered with
 a status and a logged message, never a crash)."""
 
@@ -101,7 +101,7 @@ def main():
     md = read_model_description(FMU)
     unzipdir = extract(FMU)
     try:
-        state_replay(md, unzipdir)
+        state_continuation(md, unzipdir)
         reset_and_rerun(md, unzipdir)
         two_instances(md, unzipdir)
         wrong_guid(md, unzipdir)
@@ -112,7 +112,7 @@ def main():
         sys.exit(f"{check.failures} check(s) failed")
 
 
-def state_replay(md, unzipdir):
+def state_continuation(md, unzipdir):
     d = Drive(md, unzipdir)
     d.init()
     d.step_to(1.0)  # running closed loop by now
@@ -125,7 +125,7 @@ def state_replay(md, unzipdir):
     d.t = 1.0
     d.set_real("load_torque_nm", 2e-4)
     d.step_to(1.2)
-    check(d.outputs() == first, "restored state replays bit-identically")
+    check(d.outputs() == first, "restored state continues bit-identically")
 
     data = d.fmu.serializeFMUstate(state)
     copy = d.fmu.deSerializeFMUstate(data)
@@ -133,7 +133,7 @@ def state_replay(md, unzipdir):
     d.t = 1.0
     d.set_real("load_torque_nm", 2e-4)
     d.step_to(1.2)
-    check(d.outputs() == first, f"deserialized state ({len(data)} bytes) replays bit-identically")
+    check(d.outputs() == first, f"deserialized state ({len(data)} bytes) continues bit-identically")
 
     # A state carried into a fresh instance (as after a process restart) continues too.
     e = Drive(md, unzipdir, name="other")
@@ -142,7 +142,7 @@ def state_replay(md, unzipdir):
     e.t = 1.0
     e.set_real("load_torque_nm", 2e-4)
     e.step_to(1.2)
-    check(e.outputs() == first, "serialized state restored in another instance replays")
+    check(e.outputs() == first, "serialized state restored in another instance continues bit-identically")
     e.fmu.freeFMUstate(s2)
     e.fmu.terminate()
     e.fmu.freeInstance()
@@ -246,7 +246,7 @@ def bad_calls(md, unzipdir):
     d.set_real("motor.mutual_inductance_h", 0.0)
     check(d.raw("fmi2ExitInitializationMode") == fmi2OK, "fixed values: exit OK")
 
-    # A damaged serialized state: refused with a logged reason, no replay.
+    # A damaged serialized state: refused with a logged reason, nothing built.
     state = d.fmu.getFMUstate()
     data = bytearray(d.fmu.serializeFMUstate(state))
     d.fmu.freeFMUstate(state)

@@ -1,5 +1,5 @@
 //! The exported C functions called directly, as an importer calls them: set calls apply
-//! all their values or none, damaged serialized states are refused without replay, and a
+//! all their values or none, damaged serialized states are refused before anything is built, and a
 //! panic inside a call reaches neither stderr nor the importer.
 // Calls the exported C functions as an importer does; every unsafe block says why it holds.
 #![allow(unsafe_code)]
@@ -144,7 +144,7 @@ fn a_damaged_serialized_state_is_refused_at_once_and_the_instance_goes_on() {
     let t = std::time::Instant::now();
     let (st, mut copy) = deserialize(c, &good);
     assert_eq!(st, OK);
-    let replay = t.elapsed();
+    let restore = t.elapsed();
     let t = std::time::Instant::now();
     let mut refused = 0u32;
     for i in (0..good.len()).step_by(5) {
@@ -156,10 +156,12 @@ fn a_damaged_serialized_state_is_refused_at_once_and_the_instance_goes_on() {
             refused += 1;
         }
     }
+    // A refusal hashes the bytes and logs why, building nothing: less than half of one
+    // deserialization, which builds the drive.
     let each = t.elapsed() / refused;
     assert!(
-        each * 20 < replay,
-        "a refusal took {each:?} on average; one replay of 0.3 s took {replay:?}"
+        each * 2 < restore,
+        "a refusal took {each:?} on average; one deserialization took {restore:?}"
     );
     // The instance was not touched by the refusals and the good state still restores.
     assert_eq!(fmi2DoStep(c, 0.3, H, 1), OK);

@@ -87,7 +87,7 @@ fn fmi_crate_co_simulates_the_fmu_bit_identically_to_the_native_drive() {
         "the drive reached {peak} rpm of {SPEED_REF}"
     );
 
-    // The state serialized at 0.9 s, restored through the importer, replays the rest.
+    // The state serialized at 0.9 s, restored through the importer, continues the run.
     let s = inst.deserialize_fmu_state(&saved.unwrap()).unwrap();
     inst.set_fmu_state(&s).ok().expect("state restored");
     for k in SAVE_AT_STEP..STEPS {

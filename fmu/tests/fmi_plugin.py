@@ -125,7 +125,7 @@ def runs_the_example(md, unzipdir):
             e.fmu.setFMUstate(s2)
             e.t = SAVE_S
             e.step_to(END_S)
-            check(outputs(e) == builtin, f"deserialized plugin state ({len(data)} bytes) replays")
+            check(outputs(e) == builtin, f"deserialized plugin state ({len(data)} bytes) continues bit-identically")
             check(get_plugin(e) == (fmi2OK, "example.so"), "the state carries strategy.plugin")
             e.fmu.freeFMUstate(s2)
             finish(e)

@@ -1,7 +1,7 @@
 //! The packaged FMU, imported through the `fmi` crate, runs the example strategy plugin
 //! packed into its resources (`cargo xtask fmu --plugin`) and named relatively by
 //! `strategy.plugin`: it reproduces the built-in twelve-step-df it re-implements bit for
-//! bit, a state taken while it runs replays bit-identically after serialization, and a
+//! bit, a state taken while it runs continues bit-identically after serialization, and a
 //! plugin that cannot be loaded is refused: by xtask before packing, with fmi2Error at
 //! initialization.
 
@@ -114,7 +114,7 @@ fn the_example_plugin_in_the_fmu_reproduces_the_builtin_strategy_bit_for_bit() {
     );
 
     let mut traced = run(&import, &mut inst, 0)[..(SAVE_AT_STEP / 20) as usize].to_vec();
-    // Taken at 0.9 s by rerunning to it; serialized so the replay starts from bytes.
+    // Taken at 0.9 s by rerunning to it; serialized so the continuation starts from bytes.
     let mut again = start(&import, "again", Some(lib));
     for k in 0..SAVE_AT_STEP {
         again.do_step(f64::from(k) * H, H, true).unwrap();

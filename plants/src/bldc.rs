@@ -28,6 +28,8 @@ use nalgebra::SVector;
 use std::f64::consts::TAU;
 use std::sync::{Arc, OnceLock};
 
+mod state;
+
 /// The longest step over which the comparators see a floating terminal's back-EMF along
 /// its chord \[s\]. Near a crossing the chord is off by at most E·ωe³·h³/8, a move of
 /// ωe²·h³/4 (21 ticks at 8000 rpm, the bound `tests/step_fidelity.rs` allows; it measures

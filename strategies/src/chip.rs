@@ -618,6 +618,129 @@ impl crate::Strategy for Chip {
     fn try_clone(&self) -> Result<Box<dyn crate::Strategy>, String> {
         Ok(Box::new(self.clone()))
     }
+    fn save_state(&self, w: &mut drive_core::Writer) {
+        drive_core::Persist::save(self, w);
+    }
+    fn restore_state(&mut self, r: &mut drive_core::Reader) -> Result<(), String> {
+        drive_core::Persist::restore(self, r)
+    }
+}
+
+drive_core::persist_fields!(ChipStatus {
+    mode,
+    state,
+    flag,
+    zd,
+    zdf,
+    linear,
+    duty,
+    speed_est_rpm,
+    current_ref_a,
+    current_integrator,
+    restarts,
+    crossings,
+    forced_crossings
+});
+
+/// Off, aligning (with its step and end), running, given up: codes 0..=3.
+impl drive_core::Persist for Mode {
+    fn save(&self, w: &mut drive_core::Writer) {
+        // Fixed size: the alignment's step and end, zero in the other modes.
+        let (code, step, until) = match *self {
+            Mode::Off => (0, 0, Ticks::ZERO),
+            Mode::Aligning { step, until } => (1, step, until),
+            Mode::Running => (2, 0, Ticks::ZERO),
+            Mode::GaveUp => (3, 0, Ticks::ZERO),
+        };
+        w.u8(code);
+        drive_core::Persist::save(&step, w);
+        drive_core::Persist::save(&until, w);
+    }
+    fn restore(&mut self, r: &mut drive_core::Reader) -> Result<(), String> {
+        let code = r.u8()?;
+        let (mut step, mut until) = (0u8, Ticks::ZERO);
+        r.field("step", &mut step)?;
+        r.field("until", &mut until)?;
+        *self = match code {
+            0 => Mode::Off,
+            1 if usize::from(step) < ALIGN_PATTERNS.len() => Mode::Aligning { step, until },
+            1 => {
+                return Err(format!(
+                    "step = {step} (rule: an alignment step 0..{})",
+                    ALIGN_PATTERNS.len()
+                ));
+            }
+            2 => Mode::Running,
+            3 => Mode::GaveUp,
+            k => return Err(format!("= {k} (rule: a mode code 0..=3)")),
+        };
+        Ok(())
+    }
+}
+
+// The chip's registers, counters and sub-blocks; its parameters (control, strategy,
+// pole pairs, ADC scale, carrier) are never read back.
+drive_core::persist_fields!(Chip {
+    table,
+    run_table,
+    pending_table,
+    guard,
+    shifter,
+    speed,
+    speed_pi,
+    current_pi,
+    supervisor,
+    measurements_seen,
+    linear_seen,
+    start,
+    start_since,
+    reset,
+    speed_ref_rpm,
+    mode,
+    restarts,
+    fg,
+    fg_since,
+    cv,
+    i_ref,
+    linear,
+    zd,
+    zdf,
+    next_pi,
+    crossings,
+    pattern
+} then Chip::check_restored);
+
+impl Chip {
+    /// Restored registers agree with the parameters: tables of the strategy's kind, a
+    /// speed command the register holds, a voltage command within the carrier.
+    fn check_restored(&self) -> Result<(), String> {
+        let six = self.name == StrategyName::SixStep120;
+        for t in [Some(self.table), Some(self.run_table), self.pending_table]
+            .into_iter()
+            .flatten()
+        {
+            if six != matches!(t, Table::SixStep) {
+                return Err(format!(
+                    "table {t:?} (rule: the table kind of strategy `{}`)",
+                    self.name.as_str()
+                ));
+            }
+        }
+        let max = crate::params::SPEED_CMD_MAX_RPM;
+        if !(0.0..=max).contains(&self.speed_ref_rpm) {
+            return Err(format!(
+                "speed_ref_rpm = {} (rule: 0..={max} rpm)",
+                self.speed_ref_rpm
+            ));
+        }
+        if self.cv > self.top {
+            return Err(format!(
+                "cv = {} (rule: at most the carrier top {})",
+                self.cv, self.top
+            ));
+        }
+        Ok(())
+    }
 }
 
 impl Controller for Chip {

@@ -113,6 +113,14 @@ impl DigitalFilter {
     }
 }
 
+// The register and edges; the sample count and clock are parameters.
+drive_core::persist_fields!(DigitalFilter {
+    reg,
+    out,
+    last_edge,
+    last_in
+});
+
 #[cfg(test)]
 mod tests {
     use super::*;

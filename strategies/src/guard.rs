@@ -92,6 +92,9 @@ pub fn window_counts(t60_counts: u64, deg: u32) -> u64 {
     t60_counts * u64::from(deg) / 60
 }
 
+// The digital filter; the guard's kind and window are parameters.
+drive_core::persist_fields!(Guard { filter });
+
 #[cfg(test)]
 mod tests {
     use super::*;

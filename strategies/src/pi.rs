@@ -97,6 +97,9 @@ impl Pi {
     }
 }
 
+// The integrator and output; the gains are parameters.
+drive_core::persist_fields!(Pi { ui, out });
+
 #[cfg(test)]
 mod tests {
     use super::*;

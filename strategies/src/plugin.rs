@@ -9,7 +9,7 @@
 use crate::chip::{ChipStatus, Mode};
 use crate::strategy::Strategy;
 use crate::table::{OFF_FLAG, Table, flag_of};
-use drive_core::{Abc, Command, Controller, LegState, Sensed, Ticks};
+use drive_core::{Abc, Command, Controller, LegState, Persist, Reader, Sensed, Ticks, Writer};
 use std::ffi::{CStr, CString, c_char};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -87,6 +87,8 @@ struct Loaded {
     name: String,
     description: String,
     vtable: abi::VTable,
+    /// The ABI minor the plugin was built against.
+    minor: u32,
     // Last: the vtable points into it.
     _lib: libloading::Library,
 }
@@ -176,27 +178,49 @@ impl PluginLibrary {
                 host_minor: abi::ABI_MINOR,
             });
         }
-        // SAFETY: magic and major match, so the header has this layout.
-        let h = unsafe { &*header };
-        let need = std::mem::size_of::<abi::VTable>() as u32;
-        if h.vtable_size < need {
+        // Magic and major match, so the header has this layout up to the plugin's vtable
+        // size; functions of a later minor are read only if that size holds them.
+        // SAFETY: fields before the vtable are in every header of this major.
+        let (name_p, description_p, size) = unsafe {
+            (
+                std::ptr::addr_of!((*header).name).read_unaligned(),
+                std::ptr::addr_of!((*header).description).read_unaligned(),
+                std::ptr::addr_of!((*header).vtable_size).read_unaligned() as usize,
+            )
+        };
+        if size < abi::VTABLE_1_0 {
             return Err(bad(format!(
-                "vtable of {} bytes, ABI {}.0 requires {need}",
-                h.vtable_size,
-                abi::ABI_MAJOR
+                "vtable of {size} bytes, ABI {}.0 requires {}",
+                abi::ABI_MAJOR,
+                abi::VTABLE_1_0
             )));
         }
-        let name = text(h.name, "name", path)?;
+        let vtable = {
+            let full = std::mem::size_of::<abi::VTable>();
+            let mut v = std::mem::MaybeUninit::<abi::VTable>::uninit();
+            // SAFETY: the plugin's table holds `size` bytes (at least the 1.0 functions);
+            // what it lacks is set to None (null pointers) before use.
+            unsafe {
+                let src = std::ptr::addr_of!((*header).vtable).cast::<u8>();
+                let dst = v.as_mut_ptr().cast::<u8>();
+                std::ptr::write_bytes(dst, 0, full);
+                std::ptr::copy_nonoverlapping(src, dst, size.min(full));
+                v.assume_init()
+            }
+        };
+        let h = (name_p, description_p);
+        let name = text(h.0, "name", path)?;
         if name.is_empty() {
             return Err(bad("empty name".into()));
         }
-        let description = text(h.description, "description", path)?;
+        let description = text(h.1, "description", path)?;
         Ok(PluginLibrary {
             inner: Arc::new(Loaded {
                 path: p(),
                 name,
                 description,
-                vtable: h.vtable,
+                vtable,
+                minor,
                 _lib: lib,
             }),
         })
@@ -386,6 +410,65 @@ impl PluginStrategy {
         }
     }
 
+    /// Why this plugin's state cannot be saved or restored: it predates ABI 1.1.
+    fn cannot(&self, call: &str) -> String {
+        format!(
+            "plugin `{}` ({}): {call}: built against strategy-abi {}.{}, which has no {call} (rule: a plugin strategy's state is serialized only by a plugin of ABI 1.1 or later, through its save and restore functions)",
+            self.lib.name,
+            self.lib.path.display(),
+            abi::ABI_MAJOR,
+            self.lib.minor
+        )
+    }
+
+    /// The plugin's own state bytes (ABI 1.1 `save`: length first, then the bytes), or
+    /// why there are none.
+    fn plugin_state(&self) -> Result<Vec<u8>, String> {
+        let named = |m: String| {
+            let rule = if m.contains("(rule:") {
+                ""
+            } else {
+                " (rule: a plugin strategy's save succeeds for its drive to be serialized)"
+            };
+            format!(
+                "plugin `{}` ({}): save: {m}{rule}",
+                self.lib.name,
+                self.lib.path.display()
+            )
+        };
+        if let Some(f) = &self.fault {
+            return Err(format!(
+                "{f} (rule: a failed strategy has no state to save)"
+            ));
+        }
+        let save = self.lib.vtable.save.filter(|_| self.lib.minor >= 1);
+        let Some(save) = save else {
+            return Err(self.cannot("save"));
+        };
+        let mut buf = ErrBuf::new();
+        let mut len = 0usize;
+        // SAFETY: live instance; a null buffer asks for the length only.
+        let code = unsafe { save(self.inst, std::ptr::null_mut(), 0, &mut len, buf.raw()) };
+        self.check(code, &buf).map_err(named)?;
+        if len > abi::MAX_STATE_BYTES {
+            return Err(named(format!(
+                "{len} bytes (rule: at most {} bytes)",
+                abi::MAX_STATE_BYTES
+            )));
+        }
+        let mut bytes = vec![0u8; len];
+        let mut wrote = 0usize;
+        // SAFETY: live instance; the buffer holds `len` bytes.
+        let code = unsafe { save(self.inst, bytes.as_mut_ptr(), len, &mut wrote, buf.raw()) };
+        self.check(code, &buf).map_err(named)?;
+        if wrote != len {
+            return Err(named(format!(
+                "wrote {wrote} bytes after asking for {len} (rule: the same length both times)"
+            )));
+        }
+        Ok(bytes)
+    }
+
     fn fail(&mut self, call: &str, message: String) {
         if self.fault.is_none() {
             self.fault = Some(format!(
@@ -542,6 +625,41 @@ impl Strategy for PluginStrategy {
     }
     fn speed_ref_rpm(&self) -> f64 {
         self.inputs.speed_ref_rpm
+    }
+    fn save_state(&self, w: &mut Writer) {
+        match self.plugin_state() {
+            Ok(bytes) => {
+                self.status.save(w);
+                self.inputs.now.save(w);
+                self.inputs.start.save(w);
+                self.inputs.reset.save(w);
+                self.inputs.speed_ref_rpm.save(w);
+                w.bytes(&bytes);
+            }
+            Err(e) => w.fail(e),
+        }
+    }
+    fn restore_state(&mut self, r: &mut Reader) -> Result<(), String> {
+        r.field("status", &mut self.status)?;
+        r.field("inputs.now", &mut self.inputs.now)?;
+        r.field("inputs.start", &mut self.inputs.start)?;
+        r.field("inputs.reset", &mut self.inputs.reset)?;
+        r.field("inputs.speed_ref_rpm", &mut self.inputs.speed_ref_rpm)?;
+        let bytes = r.bytes()?;
+        let restore = self.lib.vtable.restore.filter(|_| self.lib.minor >= 1);
+        let Some(restore) = restore else {
+            return Err(self.cannot("restore"));
+        };
+        let mut buf = ErrBuf::new();
+        // SAFETY: live instance; the slice is valid for its length during the call.
+        let code = unsafe { restore(self.inst, bytes.as_ptr(), bytes.len(), buf.raw()) };
+        self.check(code, &buf).map_err(|m| {
+            format!(
+                "plugin `{}` ({}): restore: {m}",
+                self.lib.name,
+                self.lib.path.display()
+            )
+        })
     }
     fn try_clone(&self) -> Result<Box<dyn Strategy>, String> {
         let mut buf = ErrBuf::new();

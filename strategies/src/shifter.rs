@@ -379,6 +379,27 @@ impl PhaseShifter {
     }
 }
 
+// Everything but the blanking time, a parameter.
+drive_core::persist_fields!(PhaseShifter {
+    table,
+    sector,
+    in_pre,
+    entered_pre,
+    last_cross,
+    t60,
+    measured,
+    crossings_seen,
+    post_end,
+    armed,
+    pre_run,
+    forced,
+    confirm,
+    integ,
+    integ_at,
+    integ_level,
+    integ_from
+});
+
 #[cfg(test)]
 mod tests {
     use super::*;

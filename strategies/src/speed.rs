@@ -70,6 +70,14 @@ impl SpeedMeter {
     }
 }
 
+// The measurement under way and the last result; the scaling is a parameter.
+drive_core::persist_fields!(SpeedMeter {
+    start,
+    edges,
+    rpm,
+    measurements
+});
+
 #[cfg(test)]
 mod tests {
     use super::*;

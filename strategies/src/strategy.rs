@@ -3,7 +3,7 @@
 use crate::chip::ChipStatus;
 use crate::table::Table;
 use drive_core::error::ParamError;
-use drive_core::{Controller, Ticks};
+use drive_core::{Controller, Reader, Ticks, Writer};
 
 /// A complete chip-like controller: commutation, guard, start-up and speed/current control
 /// behind one [`Controller`], plus the inputs and observables a front end needs.
@@ -38,4 +38,33 @@ pub trait Strategy: Controller + Send {
     }
     /// An independent copy in the same state, or why there cannot be one.
     fn try_clone(&self) -> Result<Box<dyn Strategy>, String>;
+
+    /// Writes the dynamic state (see [`drive_core::state`]), or records in `w` why it
+    /// cannot.
+    fn save_state(&self, w: &mut Writer) {
+        w.fail(format!(
+            "strategy `{}` cannot save its state (rule: a strategy saves and restores its state by value to be serialized)",
+            self.name()
+        ));
+    }
+
+    /// Reads back what [`Strategy::save_state`] wrote into a strategy built from the same
+    /// parameters, checking every value.
+    fn restore_state(&mut self, r: &mut Reader) -> Result<(), String> {
+        let _ = r;
+        Err(format!(
+            "strategy `{}` cannot restore its state (rule: a strategy saves and restores its state by value to be deserialized)",
+            self.name()
+        ))
+    }
+}
+
+/// A strategy's state through [`Strategy::save_state`] and [`Strategy::restore_state`].
+impl drive_core::Persist for Box<dyn Strategy> {
+    fn save(&self, w: &mut Writer) {
+        self.save_state(w);
+    }
+    fn restore(&mut self, r: &mut Reader) -> Result<(), String> {
+        self.restore_state(r)
+    }
 }

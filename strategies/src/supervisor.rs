@@ -201,6 +201,15 @@ impl Supervisor {
     }
 }
 
+// The history of implausible updates and the trips; the thresholds are parameters.
+drive_core::persist_fields!(Supervisor {
+    history,
+    quiet,
+    coast_min,
+    blind,
+    trips
+});
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -180,6 +180,46 @@ impl Table {
     }
 }
 
+/// Six-step: a placeholder to restore a saved table into.
+impl Default for Table {
+    fn default() -> Self {
+        Table::SixStep
+    }
+}
+
+/// Six-step as code 0, twelve-step as code 1, then the conduction angle (by its rule).
+impl drive_core::Persist for Table {
+    fn save(&self, w: &mut drive_core::Writer) {
+        // Fixed size: six-step writes its 120° too.
+        let (code, deg) = match *self {
+            Table::SixStep => (0, 120.0),
+            Table::TwelveStep { conduction_deg } => (1, conduction_deg),
+        };
+        w.u8(code);
+        drive_core::Persist::save(&deg, w);
+    }
+    fn restore(&mut self, r: &mut drive_core::Reader) -> Result<(), String> {
+        let code = r.u8()?;
+        let mut deg = 0.0;
+        r.field("conduction_deg", &mut deg)?;
+        *self = match code {
+            0 => Table::SixStep,
+            1 => {
+                if !(120.0..180.0).contains(&deg) {
+                    return Err(format!(
+                        "conduction_deg = {deg} (rule: 120 <= x < 180 electrical degrees)"
+                    ));
+                }
+                Table::TwelveStep {
+                    conduction_deg: deg,
+                }
+            }
+            k => return Err(format!("= {k} (rule: a table code 0 or 1)")),
+        };
+        Ok(())
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -21,6 +21,20 @@ pub trait Plugin: Clone + Send + Sized + 'static {
     fn set_inputs(&mut self, inputs: &Inputs);
     /// One clock edge: the command to apply and the status to show.
     fn step(&mut self, now: u64, sensed: &CSensed) -> Result<(CCommand, CStatus), String>;
+    /// The dynamic state as bytes of the plugin's own format (ABI 1.1), for the host to
+    /// store and hand back to [`Plugin::restore`] on an instance created from the same
+    /// config.
+    fn save(&self) -> Result<Vec<u8>, String> {
+        Err(
+            "this plugin cannot save its state (rule: implement Plugin::save and Plugin::restore)"
+                .into(),
+        )
+    }
+    /// Reads back what [`Plugin::save`] wrote, refusing bytes it does not accept.
+    fn restore(&mut self, state: &[u8]) -> Result<(), String> {
+        let _ = state;
+        Err("this plugin cannot restore its state (rule: implement Plugin::save and Plugin::restore)".into())
+    }
 }
 
 /// An instance with its initial state (for reset) and a poison flag set by a panic.
@@ -239,6 +253,56 @@ unsafe extern "C" fn step<T: Plugin>(
     }
 }
 
+unsafe extern "C" fn save<T: Plugin>(
+    inst: Instance,
+    buf: *mut u8,
+    cap: usize,
+    len: *mut usize,
+    err: *mut ErrorBuf,
+) -> i32 {
+    if len.is_null() {
+        unsafe { report(err, "save: null length") };
+        return ERROR;
+    }
+    unsafe {
+        with::<T>(inst, err, |t| {
+            let bytes = t.save()?;
+            *len = bytes.len();
+            if buf.is_null() {
+                return Ok(());
+            }
+            if bytes.len() > cap {
+                return Err(format!(
+                    "save: {} bytes do not fit in {cap} (rule: ask for the length first)",
+                    bytes.len()
+                ));
+            }
+            // SAFETY: the host's buffer holds `cap` bytes (ABI contract).
+            std::ptr::copy_nonoverlapping(bytes.as_ptr(), buf, bytes.len());
+            Ok(())
+        })
+    }
+}
+
+unsafe extern "C" fn restore<T: Plugin>(
+    inst: Instance,
+    buf: *const u8,
+    len: usize,
+    err: *mut ErrorBuf,
+) -> i32 {
+    if buf.is_null() && len > 0 {
+        unsafe { report(err, "restore: null state") };
+        return ERROR;
+    }
+    let state: &[u8] = if len == 0 {
+        &[]
+    } else {
+        // SAFETY: the host's buffer holds `len` bytes (ABI contract).
+        unsafe { std::slice::from_raw_parts(buf, len) }
+    };
+    unsafe { with::<T>(inst, err, |t| t.restore(state)) }
+}
+
 /// The vtable of `T`: every function wraps `T`'s method with panic and null checks.
 pub const fn vtable_of<T: Plugin>() -> VTable {
     VTable {
@@ -250,6 +314,8 @@ pub const fn vtable_of<T: Plugin>() -> VTable {
         table: table::<T>,
         set_inputs: set_inputs::<T>,
         step: step::<T>,
+        save: Some(save::<T>),
+        restore: Some(restore::<T>),
     }
 }
 

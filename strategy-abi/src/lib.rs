@@ -36,8 +36,8 @@ use std::ffi::c_void;
 pub const MAGIC: [u8; 8] = *b"BLDCSTRT";
 /// ABI major version of this crate.
 pub const ABI_MAJOR: u32 = 1;
-/// ABI minor version of this crate.
-pub const ABI_MINOR: u32 = 0;
+/// ABI minor version of this crate. 1: `save` and `restore` appended to [`VTable`].
+pub const ABI_MINOR: u32 = 1;
 /// Name of the entry symbol (NUL-terminated for `dlsym`).
 pub const ENTRY_SYMBOL: &[u8] = b"bldc_strategy_entry\0";
 
@@ -198,6 +198,10 @@ impl ErrorBuf {
     }
 }
 
+/// The size of a plugin state the host accepts from `save` \[bytes\]: a state is the
+/// strategy's registers and counters, far smaller.
+pub const MAX_STATE_BYTES: usize = 1 << 20;
+
 /// Opaque instance pointer.
 pub type Instance = *mut c_void;
 
@@ -234,4 +238,27 @@ pub struct VTable {
         status: *mut CStatus,
         err: *mut ErrorBuf,
     ) -> i32,
+    /// ABI 1.1: writes the instance's dynamic state (bytes of the plugin's own format)
+    /// into `buf` and its length to `len`. With `buf` null, only writes the length needed
+    /// and returns OK; with `cap` too small, writes the length needed and returns ERROR.
+    /// A plugin that cannot save its state returns ERROR with the reason. `None` (a null
+    /// pointer) is the same as a plugin that cannot.
+    pub save: Option<
+        unsafe extern "C" fn(
+            inst: Instance,
+            buf: *mut u8,
+            cap: usize,
+            len: *mut usize,
+            err: *mut ErrorBuf,
+        ) -> i32,
+    >,
+    /// ABI 1.1: reads a state `save` wrote (`len` bytes at `buf`) into an instance
+    /// created from the same config; refuses (ERROR) bytes it does not accept; the host
+    /// then drops the instance.
+    pub restore: Option<
+        unsafe extern "C" fn(inst: Instance, buf: *const u8, len: usize, err: *mut ErrorBuf) -> i32,
+    >,
 }
+
+/// The size of a 1.0 [`VTable`] \[bytes\]: the functions every plugin of this major has.
+pub const VTABLE_1_0: usize = std::mem::offset_of!(VTable, save);

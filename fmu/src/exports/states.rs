@@ -204,7 +204,8 @@ pub unsafe extern "C" fn fmi2SerializeFMUstate(
     })
 }
 
-/// `fmi2DeSerializeFMUstate`: rebuilds the drive and replays its record.
+/// `fmi2DeSerializeFMUstate`: builds the drive from the stored values and restores its
+/// dynamic state (see [`crate::state`]).
 ///
 /// # Safety
 /// FMI contract: `bytes` holds `size` bytes; `state` points to an `fmi2FMUstate`.

@@ -98,6 +98,9 @@ fn status_query(
 ) -> Status {
     guarded(ERROR, || {
         with_instance(c, call, |inst| {
+            if let Err(e) = inst.model.status_query(call) {
+                return inst.report(call, Err(e));
+            }
             if answer(inst) {
                 OK
             } else {

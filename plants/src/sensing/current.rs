@@ -15,6 +15,8 @@ use crate::params::CurrentSenseParams;
 use drive_core::{TICK_S, Ticks};
 use std::collections::VecDeque;
 
+mod state;
+
 /// The current-sense chain and its ADC pipeline.
 #[derive(Clone, Debug)]
 pub struct CurrentSense {

@@ -2,12 +2,14 @@
 //! `BLDC_TEST_MISBEHAVE` chooses the fault, read when the entry symbol is called (header
 //! faults) or when an instance is created (call faults):
 //! `magic` (wrong magic), `major` (ABI major + 1), `null-header`, `panic` (step panics),
-//! `shoot-through` (step commands both switches of leg u on), `create-error`; anything
-//! else: a well-behaved strategy that keeps the bridge off.
+//! `shoot-through` (step commands both switches of leg u on), `create-error`,
+//! `save-panic` and `restore-panic` (those calls panic), `save-huge` (save asks for more
+//! than the host accepts), `minor-0` (an ABI 1.0 plugin: no save or restore); anything
+//! else: a well-behaved strategy that keeps the bridge off and saves its state.
 
 use strategy_abi::{
     ABI_MAJOR, ABI_MINOR, CCommand, CSensed, CStatus, CTable, DriveInfo, Header, Inputs, LEG_HIGH,
-    LEG_LOW, MAGIC, Plugin, VTable, vtable_of,
+    LEG_LOW, MAGIC, Plugin, VTABLE_1_0, VTable, vtable_of,
 };
 
 fn mode() -> String {
@@ -51,12 +53,30 @@ impl Plugin for Misbehaving {
         }
         Ok((c, CStatus::default()))
     }
+    fn save(&self) -> Result<Vec<u8>, String> {
+        match self.mode.as_str() {
+            "save-panic" => panic!("deliberate panic in save"),
+            "save-huge" => Ok(vec![0; strategy_abi::MAX_STATE_BYTES + 1]),
+            _ => Ok(b"ok".to_vec()),
+        }
+    }
+    fn restore(&mut self, state: &[u8]) -> Result<(), String> {
+        match self.mode.as_str() {
+            "restore-panic" => panic!("deliberate panic in restore"),
+            _ if state == b"ok" => Ok(()),
+            _ => Err(format!(
+                "{} bytes that are not a state of this plugin",
+                state.len()
+            )),
+        }
+    }
 }
 
 struct Headers {
     good: Header,
     magic: Header,
     major: Header,
+    minor_0: Header,
 }
 
 const fn header(magic: [u8; 8], major: u32) -> Header {
@@ -71,10 +91,19 @@ const fn header(magic: [u8; 8], major: u32) -> Header {
     }
 }
 
+/// As a plugin built against ABI 1.0 states itself: its table ends before `save`.
+const fn header_1_0() -> Header {
+    let mut h = header(MAGIC, ABI_MAJOR);
+    h.abi_minor = 0;
+    h.vtable_size = VTABLE_1_0 as u32;
+    h
+}
+
 static HEADERS: Headers = Headers {
     good: header(MAGIC, ABI_MAJOR),
     magic: header(*b"NOTBLDC!", ABI_MAJOR),
     major: header(MAGIC, ABI_MAJOR + 1),
+    minor_0: header_1_0(),
 };
 
 /// The entry symbol, answering according to `BLDC_TEST_MISBEHAVE`.
@@ -84,6 +113,7 @@ pub extern "C" fn bldc_strategy_entry() -> *const Header {
         "magic" => &HEADERS.magic,
         "major" => &HEADERS.major,
         "null-header" => std::ptr::null(),
+        "minor-0" => &HEADERS.minor_0,
         _ => &HEADERS.good,
     }
 }

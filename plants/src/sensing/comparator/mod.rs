@@ -20,6 +20,7 @@
 //! certain.
 
 mod records;
+mod state;
 
 use super::foh::Foh;
 use super::noise;
