@@ -63,6 +63,7 @@ impl Default for Lookahead {
             x1: State::zeros(),
             s1: Solution::default(),
             f1: State::zeros(),
+            sc1: (0.0, 1.0),
             event: None,
         }
     }
@@ -78,6 +79,7 @@ impl Persist for Lookahead {
         save_x(&self.x1, w);
         self.s1.save(w);
         save_x(&self.f1, w);
+        self.sc1.save(w);
         self.event.save(w);
     }
     fn restore(&mut self, r: &mut Reader) -> Result<(), String> {
@@ -89,6 +91,8 @@ impl Persist for Lookahead {
         restore_x(r, "x1", &mut self.x1)?;
         r.field("s1", &mut self.s1)?;
         restore_x(r, "f1", &mut self.f1)?;
+        r.field("sc1", &mut self.sc1)?;
+        unit_circle("sc1", self.sc1)?;
         r.field("event", &mut self.event)
     }
 }
@@ -113,6 +117,7 @@ impl Persist for BldcPlant {
         let (x, f) = self.fsal.as_ref().unwrap_or(&zero);
         save_x(x, w);
         save_x(f, w);
+        self.end_angle.save(w);
         self.reported.save(w);
         self.stats.save(w);
         self.cmp.save(w);
@@ -141,6 +146,10 @@ impl Persist for BldcPlant {
         restore_x(r, "fsal.0", &mut x)?;
         restore_x(r, "fsal.1", &mut f)?;
         self.fsal = some.then_some((x, f));
+        r.field("end_angle", &mut self.end_angle)?;
+        if let Some((_, s, c)) = self.end_angle {
+            unit_circle("end_angle", (s, c))?;
+        }
         r.field("reported", &mut self.reported)?;
         r.field("stats", &mut self.stats)?;
         self.check_times()?;
@@ -153,6 +162,13 @@ impl Persist for BldcPlant {
         self.cmp.check_against(self.tick.0.0, self.longest_step())?;
         self.cur.check_against(self.t, self.longest_step())
     }
+}
+
+/// A sine and cosine pair of one angle (they are carried from step to step).
+fn unit_circle(name: &str, (s, c): (f64, f64)) -> Result<(), String> {
+    check((s * s + c * c - 1.0).abs() < 1e-9, || {
+        format!("{name} = ({s}, {c}) (rule: a sine and cosine, s² + c² = 1)")
+    })
 }
 
 impl BldcPlant {
