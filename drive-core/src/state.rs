@@ -125,6 +125,11 @@ pub trait Persist {
     fn restore(&mut self, r: &mut Reader) -> Result<(), String>;
 }
 
+/// The check of a struct whose restored fields need none together.
+pub fn unchecked<T: ?Sized>(_: &T) -> Result<(), String> {
+    Ok(())
+}
+
 /// Implements [`Persist`] for a struct by the listed fields, in order; with
 /// `then check`, `check(&self) -> Result<(), String>` judges the restored values together.
 #[macro_export]
@@ -144,18 +149,7 @@ macro_rules! persist_fields {
         }
     };
     ($ty:ty { $($f:ident),* $(,)? }) => {
-        impl $crate::state::Persist for $ty {
-            fn save(&self, w: &mut $crate::state::Writer) {
-                $( $crate::state::Persist::save(&self.$f, w); )*
-            }
-            fn restore(
-                &mut self,
-                r: &mut $crate::state::Reader,
-            ) -> ::std::result::Result<(), ::std::string::String> {
-                $( r.field(stringify!($f), &mut self.$f)?; )*
-                Ok(())
-            }
-        }
+        $crate::persist_fields!($ty { $($f),* } then $crate::state::unchecked);
     };
 }
 
