@@ -211,15 +211,13 @@ fn a_shoot_through_command_is_refused_by_the_host() {
 /// The engine's state by value (plant, engine and strategy).
 fn saved(e: &bldc_drive::drive::DriveEngine) -> Result<Vec<u8>, String> {
     use bldc_drive::drive_core::Persist;
-    let mut w = bldc_drive::drive_core::Writer::new();
-    e.save(&mut w);
-    w.finish()
+    e.to_bytes()
 }
 
 fn restored(lib: &PluginLibrary, bytes: &[u8]) -> Result<bldc_drive::drive::DriveEngine, String> {
     use bldc_drive::drive_core::Persist;
     let mut e = build_plugin(&DriveConfig::default(), lib).unwrap();
-    e.restore(&mut bldc_drive::drive_core::Reader::new(bytes))?;
+    e.restore_from(bytes)?;
     Ok(e)
 }
 

@@ -107,10 +107,13 @@ impl<'a> Reader<'a> {
     }
 }
 
-/// `name` prefixed to a refusal: "a.b = 3 (rule: …)".
+/// `name` prefixed to a refusal: "a.b = 3 (rule: …)"; a refusal of the whole rather than
+/// a field ("12 bytes left over …": field paths never start with a digit) as "a: …".
 pub fn named(name: &str, e: &str) -> String {
     if e.starts_with('=') || e.starts_with(' ') {
         format!("{name} {e}")
+    } else if e.starts_with(|c: char| c.is_ascii_digit()) {
+        format!("{name}: {e}")
     } else {
         format!("{name}.{e}")
     }
@@ -123,6 +126,26 @@ pub trait Persist {
     /// Reads it back into a component built from the same parameters, checking every
     /// value; on `Err` the component is in an unspecified state and must be dropped.
     fn restore(&mut self, r: &mut Reader) -> Result<(), String>;
+
+    /// The dynamic state as bytes, or why it cannot be saved.
+    fn to_bytes(&self) -> Result<Vec<u8>, String> {
+        let mut w = Writer::new();
+        self.save(&mut w);
+        w.finish()
+    }
+
+    /// Restores from `bytes`, all of them: bytes left over were not saved by a component
+    /// built like this one.
+    fn restore_from(&mut self, bytes: &[u8]) -> Result<(), String> {
+        let mut r = Reader::new(bytes);
+        self.restore(&mut r)?;
+        check(r.rest().is_empty(), || {
+            format!(
+                "{} bytes left over (rule: the state of a component built from the same values)",
+                r.rest().len()
+            )
+        })
+    }
 }
 
 /// The check of a struct whose restored fields need none together.
@@ -382,9 +405,7 @@ mod tests {
     persist_fields!(Demo { a, b, c, d });
 
     fn bytes(x: &Demo) -> Vec<u8> {
-        let mut w = Writer::new();
-        x.save(&mut w);
-        w.finish().unwrap()
+        x.to_bytes().unwrap()
     }
 
     #[test]
@@ -397,10 +418,14 @@ mod tests {
         };
         let b = bytes(&x);
         let mut y = Demo::default();
-        let mut r = Reader::new(&b);
-        y.restore(&mut r).unwrap();
-        assert!(r.rest().is_empty());
+        y.restore_from(&b).unwrap();
         assert_eq!(x, y);
+        // All the bytes or none: one more is not this component's state.
+        let mut longer = b.clone();
+        longer.push(0);
+        let e = Demo::default().restore_from(&longer).unwrap_err();
+        assert!(e.starts_with("1 bytes left over (rule:"), "{e}");
+        assert!(named("demo", &e).starts_with("demo: 1 bytes left over"));
         x.c.pop_back();
         assert_eq!(
             bytes(&x).len(),

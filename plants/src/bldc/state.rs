@@ -238,9 +238,7 @@ mod tests {
     }
 
     fn bytes(pl: &BldcPlant) -> Vec<u8> {
-        let mut w = Writer::new();
-        pl.save(&mut w);
-        w.finish().unwrap()
+        pl.to_bytes().unwrap()
     }
 
     #[test]
@@ -252,7 +250,7 @@ mod tests {
         );
         let b = bytes(&pl);
         let mut copy = BldcPlant::new(PlantParams::default()).unwrap();
-        copy.restore(&mut Reader::new(&b)).unwrap();
+        copy.restore_from(&b).unwrap();
         assert_eq!(bytes(&copy), b);
     }
 

@@ -3,7 +3,7 @@
 //! for step. A new scheme would replace [`Chip`] with its own state machine and keep the
 //! same glue: parse the config, translate the C-layout inputs and outputs.
 
-use drive_core::{Abc, Controller, LegState, Persist, Reader, Sensed, Ticks, Writer};
+use drive_core::{Abc, Controller, LegState, Persist, Sensed, Ticks};
 use serde::Deserialize;
 use strategies::{Chip, ControlParams, Mode, Strategy, StrategyName, StrategyParams, Table};
 use strategy_abi::{
@@ -119,21 +119,11 @@ impl Plugin for ExampleDf {
     // The chip's own encoding (drive_core::state): a plugin may use any format, since
     // only it reads its bytes back.
     fn save(&self) -> Result<Vec<u8>, String> {
-        let mut w = Writer::new();
-        Persist::save(&self.chip, &mut w);
-        w.finish()
+        self.chip.to_bytes()
     }
 
     fn restore(&mut self, state: &[u8]) -> Result<(), String> {
-        let mut r = Reader::new(state);
-        Persist::restore(&mut self.chip, &mut r)?;
-        if !r.rest().is_empty() {
-            return Err(format!(
-                "{} bytes left over (rule: a state this plugin saved)",
-                r.rest().len()
-            ));
-        }
-        Ok(())
+        self.chip.restore_from(state)
     }
 }
 

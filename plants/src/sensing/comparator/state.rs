@@ -4,10 +4,10 @@
 //! noise is a function of the tick, so it has no state of its own.
 
 use super::records::{RECORDS, Record, Records};
-use super::{Channel, ComparatorBank, Cursor, History, Ring, ScanWork};
+use super::{Channel, ComparatorBank, Cursor, Front, History, Ring, ScanWork};
 use crate::sensing::foh::Foh;
 use crate::sensing::rc::CubicRc;
-use drive_core::state::{Persist, Reader, Writer, check};
+use drive_core::state::check;
 use drive_core::{Phase, persist_fields};
 
 persist_fields!(Foh { a, b, c, tau });
@@ -92,37 +92,23 @@ impl Default for Cursor {
     }
 }
 
-impl Persist for ComparatorBank {
-    fn save(&self, w: &mut Writer) {
-        let f = &self.front;
-        f.y.save(w);
-        f.y_n.save(w);
-        f.out.save(w);
-        f.hist.save(w);
-        f.ring.save(w);
-        f.toggles.save(w);
-        f.work.save(w);
-        self.pending.save(w);
-        self.records.save(w);
-        self.dormant.save(w);
-        self.read_from.save(w);
-    }
-
-    fn restore(&mut self, r: &mut Reader) -> Result<(), String> {
-        let f = &mut self.front;
-        r.field("y", &mut f.y)?;
-        r.field("y_n", &mut f.y_n)?;
-        r.field("out", &mut f.out)?;
-        r.field("hist", &mut f.hist)?;
-        r.field("ring", &mut f.ring)?;
-        r.field("toggles", &mut f.toggles)?;
-        r.field("work", &mut f.work)?;
-        r.field("pending", &mut self.pending)?;
-        r.field("records", &mut self.records)?;
-        r.field("dormant", &mut self.dormant)?;
-        r.field("read_from", &mut self.read_from)
-    }
-}
+// The front's outputs, filters, histories and ringing; its parameters are not saved.
+persist_fields!(Front {
+    y,
+    y_n,
+    out,
+    hist,
+    ring,
+    toggles,
+    work
+});
+persist_fields!(ComparatorBank {
+    front,
+    pending,
+    records,
+    dormant,
+    read_from
+});
 
 impl ComparatorBank {
     /// Checks a restored bank against the plant's tick `now`: the kept steps, the scans
