@@ -339,11 +339,11 @@ mod tests {
     fn every_bit_flip_and_truncation_is_refused_by_the_header() {
         let m = running(0.3);
         let bytes = serialize(&m).unwrap();
-        let t = std::time::Instant::now();
         deserialize(&bytes, None).unwrap();
-        let one = t.elapsed();
-        let t = std::time::Instant::now();
-        let mut refused = 0u32;
+        // Every refusal must name the header's check. Were the values read before the hash
+        // is checked, a flip that makes one invalid (a NaN, a code out of range) would name
+        // that value's rule instead: this pins that nothing is read or built first. (Not
+        // timed: a ratio of two timings fails on a loaded machine.)
         for bit in 0..bytes.len() * 8 {
             let mut b = bytes.clone();
             b[bit / 8] ^= 1 << (bit % 8);
@@ -354,7 +354,6 @@ mod tests {
                 e.contains("checksum") || e.contains("magic") || e.contains("length"),
                 "bit {bit}: {e}"
             );
-            refused += 1;
         }
         for n in 0..bytes.len() {
             let Err(e) = deserialize(&bytes[..n], None) else {
@@ -364,15 +363,7 @@ mod tests {
                 e.contains("header") || e.contains("magic") || e.contains("length"),
                 "{n} bytes: {e}"
             );
-            refused += 1;
         }
-        // A refusal checks the header and hashes the bytes, building nothing: far less
-        // than one deserialization, which builds the drive.
-        let each = t.elapsed() / refused;
-        assert!(
-            each * 5 < one,
-            "a refusal took {each:?} on average, one deserialization {one:?}"
-        );
     }
 
     /// `m` run on by `n` steps cycling through sizes off the 1 ms grid.

@@ -132,7 +132,7 @@ fn load_beyond_the_rule_with_the_drive_enabled_is_refused_and_steps_stay_finite(
 }
 
 #[test]
-fn a_damaged_serialized_state_is_refused_at_once_and_the_instance_goes_on() {
+fn a_damaged_serialized_state_is_refused_and_the_instance_goes_on() {
     let c = initialized("damaged");
     for k in 0..300 {
         assert_eq!(fmi2DoStep(c, f64::from(k) * H, H, 1), OK);
@@ -141,28 +141,18 @@ fn a_damaged_serialized_state_is_refused_at_once_and_the_instance_goes_on() {
     let good = serialized(c, s);
     // SAFETY: live state, freed once.
     assert_eq!(unsafe { fmi2FreeFMUstate(c, &mut s) }, OK);
-    let t = std::time::Instant::now();
     let (st, mut copy) = deserialize(c, &good);
     assert_eq!(st, OK);
-    let restore = t.elapsed();
-    let t = std::time::Instant::now();
-    let mut refused = 0u32;
+    // That the header is checked before anything is read or built is pinned by the
+    // refusals' messages in the crate's own state tests; here, what the importer sees.
     for i in (0..good.len()).step_by(5) {
         for bit in [0, 3, 7] {
             let mut b = good.clone();
             b[i] ^= 1 << bit;
             let (st, s) = deserialize(c, &b);
             assert_eq!((st, s), (ERROR, ptr::null_mut()), "byte {i} bit {bit}");
-            refused += 1;
         }
     }
-    // A refusal hashes the bytes and logs why, building nothing: less than half of one
-    // deserialization, which builds the drive.
-    let each = t.elapsed() / refused;
-    assert!(
-        each * 2 < restore,
-        "a refusal took {each:?} on average; one deserialization took {restore:?}"
-    );
     // The instance was not touched by the refusals and the good state still restores.
     assert_eq!(fmi2DoStep(c, 0.3, H, 1), OK);
     // SAFETY: live state of this instance.
