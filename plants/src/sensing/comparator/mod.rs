@@ -698,6 +698,7 @@ impl Front {
     }
 
     /// e^{−τ/τp}, e^{−τ/τn} at tick `k` (not before the step's first) of `c`'s step.
+    #[inline(always)]
     fn decay(&self, c: &Channel, k: u64) -> (f64, f64) {
         debug_assert!(k >= c.k_s, "tick {k} before the step's first, {}", c.k_s);
         let n = k - c.k_s;
@@ -715,6 +716,7 @@ impl Front {
     }
 
     /// The ringing's envelope at tick `k` (not before the excitation), by table.
+    #[inline(always)]
     fn ring_envelope_at(&self, k: u64) -> f64 {
         if self.ring.mag == 0.0 {
             return 0.0;
@@ -825,6 +827,9 @@ impl Front {
 
     /// Whether `c`'s output may toggle at a tick in `a..=b` of its step, with noise in
     /// [n_lo, n_hi]: the filter decays at both ends, the ringing's envelope at `a`.
+    /// Inlined, as the bounds it calls: a scan's loop runs it 8 times on average, and out
+    /// of line its arguments and results go through memory.
+    #[inline(always)]
     fn may_toggle_over(&self, c: &Channel, a: u64, b: u64, n_lo: f64, n_hi: f64) -> bool {
         let (ta, tb, w, env) = self.over(c, a, b);
         self.may_toggle(c, ta, tb, w, env, n_lo, n_hi)
@@ -832,6 +837,7 @@ impl Front {
 
     /// Ticks `a..=b` of `c`'s step as the bounds take them: τ at both ends, the filter
     /// decays there, and the ringing's envelope at `a` (it only decays after).
+    #[inline(always)]
     fn over(&self, c: &Channel, a: u64, b: u64) -> (f64, f64, [f64; 4], f64) {
         let (ta, tb) = (a as f64 * TICK_S - c.t0, b as f64 * TICK_S - c.t0);
         let (pa, na) = self.decay(c, a);
@@ -969,6 +975,7 @@ impl Front {
     /// `w` holds the decay factors (e^{−ta/τp}, e^{−ta/τn}, e^{−tb/τp}, e^{−tb/τn}); `env`
     /// bounds the ringing from ta on.
     #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
     fn may_toggle(
         &self,
         c: &Channel,
@@ -992,6 +999,7 @@ impl Front {
 
     /// Whether a noise-free signal range [lo, hi] plus noise in [n_lo, n_hi] can cross the
     /// threshold the output is waiting for.
+    #[inline(always)]
     fn can_toggle(&self, x: Phase, lo: f64, hi: f64, n_lo: f64, n_hi: f64) -> bool {
         if self.out.get(x) {
             lo + n_lo < -self.half_h
@@ -1013,31 +1021,29 @@ impl Front {
     /// [`Front::range`] from the interval's ends only: exact for P's chord, widened
     /// by P's deviation from it, and for the transients unless their stationary point lies
     /// inside.
+    #[inline(always)]
     fn range_ends(c: &Channel, ta: f64, tb: f64, w: [f64; 4], env: f64) -> (f64, f64) {
         let (l1, l2) = (c.poly[0] + c.beta * ta, c.poly[0] + c.beta * tb);
         let (ga, gb) = (c.a * w[0] - c.b * w[1], c.a * w[2] - c.b * w[3]);
-        (
-            l1.min(l2) + c.dev.0 + ga.min(gb) - env,
-            l1.max(l2) + c.dev.1 + ga.max(gb) + env,
-        )
+        let (l_lo, l_hi) = min_max(l1, l2);
+        let (g_lo, g_hi) = min_max(ga, gb);
+        (l_lo + c.dev.0 + g_lo - env, l_hi + c.dev.1 + g_hi + env)
     }
 
     /// How far g(τ) = A·e^{−τ/τp} − B·e^{−τ/τn} reaches beyond its values at the ends of
     /// the interval whose decay factors are `w` (signed), if its one stationary point is
     /// inside: that is where g′ changes sign, so no logarithm is needed to rule it out.
+    #[inline(always)]
     fn stationary_within(&self, c: &Channel, w: [f64; 4]) -> Option<f64> {
         let (ap, bn) = (c.ap, c.bn);
         let (da, db) = (bn * w[1] - ap * w[0], bn * w[3] - ap * w[2]);
         if da * db >= 0.0 {
             return None;
         }
-        let gts = c.stationary.get().unwrap_or_else(|| {
-            // g′(ts) = 0: e^{(1/τp − 1/τn)·ts} = (A·τn)/(B·τp).
-            let ts = (ap / bn).ln() / (1.0 / self.tau_p - 1.0 / self.tau_n);
-            let g = c.a * (-ts / self.tau_p).exp() - c.b * (-ts / self.tau_n).exp();
-            c.stationary.set(Some(g));
-            g
-        });
+        let gts = c
+            .stationary
+            .get()
+            .unwrap_or_else(|| self.stationary_value(c));
         let (ga, gb) = (c.a * w[0] - c.b * w[1], c.a * w[2] - c.b * w[3]);
         Some(if gts > ga.max(gb) {
             gts - ga.max(gb)
@@ -1046,6 +1052,18 @@ impl Front {
         } else {
             0.0
         })
+    }
+
+    /// g at its stationary point (see [`Front::stationary_within`]), computed once per
+    /// channel and step: out of line, so that the bounds inlined in the scans stay short.
+    #[cold]
+    #[inline(never)]
+    fn stationary_value(&self, c: &Channel) -> f64 {
+        // g′(ts) = 0: e^{(1/τp − 1/τn)·ts} = (A·τn)/(B·τp).
+        let ts = (c.ap / c.bn).ln() / (1.0 / self.tau_p - 1.0 / self.tau_n);
+        let g = c.a * (-ts / self.tau_p).exp() - c.b * (-ts / self.tau_n).exp();
+        c.stationary.set(Some(g));
+        g
     }
 
     /// Outputs as seen after the propagation delay at instant `at`.
@@ -1064,6 +1082,13 @@ impl Front {
             .min()
             .map(|k| Ticks(k + self.delay))
     }
+}
+
+/// (min, max) of two finite values, as plain selects: `f64::min` and `max` also order
+/// NaNs, which costs a handful of instructions a call in the bounds.
+#[inline(always)]
+fn min_max(a: f64, b: f64) -> (f64, f64) {
+    if a < b { (a, b) } else { (b, a) }
 }
 
 #[cfg(test)]
