@@ -417,14 +417,14 @@ impl ComparatorBank {
         let f = &mut self.front;
         for x in Phase::ALL {
             let j = x.index();
+            let slot = &mut self.pending[j];
             if !live.get(x) {
                 self.dormant[j].get_or_insert(seq);
-            } else if let Some(mut cur) = f.open(rec, x) {
-                if watched.get(x) {
-                    f.scan_to(&mut cur, rec.k_end);
-                } else {
-                    self.pending[j] = Some(cur);
+            } else if f.open(rec, x, slot) && watched.get(x) {
+                if let Some(cur) = slot {
+                    f.scan_to(cur, rec.k_end);
                 }
+                *slot = None;
             }
         }
         (f.y, f.y_n) = rec.filters_at(rec.h, rec.eh);
@@ -507,7 +507,7 @@ impl ComparatorBank {
         // ringing is still its own; after an edge has excited more, it is walked now.
         let rec = self.records.newest();
         if rec.ring == self.front.ring {
-            self.pending[x.index()] = self.front.open(rec, x);
+            self.front.open(rec, x, &mut self.pending[x.index()]);
         } else {
             self.scan_record(x, newest);
         }
@@ -554,8 +554,11 @@ impl ComparatorBank {
     fn scan_record(&mut self, x: Phase, seq: u64) {
         let rec = self.records.get(seq);
         self.front.with_ring(rec.ring, |f| {
-            if let Some(mut cur) = f.open(rec, x) {
-                f.scan_to(&mut cur, rec.k_end);
+            let mut slot = None;
+            if f.open(rec, x, &mut slot)
+                && let Some(cur) = &mut slot
+            {
+                f.scan_to(cur, rec.k_end);
             }
         });
     }
@@ -946,21 +949,26 @@ impl Front {
         c
     }
 
-    /// A scan of channel `x` over recorded step `rec`, unless nothing can happen in it.
-    fn open(&self, rec: &Record, x: Phase) -> Option<Cursor> {
+    /// Puts in `slot` a scan of channel `x` over recorded step `rec`, unless nothing can
+    /// happen in it (then `slot` is left empty); returns whether it did. The scan is built
+    /// in its slot and bounded there: a scan is large, and most steps are ruled out whole.
+    fn open(&self, rec: &Record, x: Phase, slot: &mut Option<Cursor>) -> bool {
         if rec.k_start > rec.k_end {
-            return None;
+            *slot = None;
+            return false;
         }
-        let c = self.channel(rec, x);
-        let w = [1.0, 1.0, rec.eh.0, rec.eh.1];
-        let (a, env) = (self.noise_a, rec.env0);
-        let cursor = Cursor {
-            c,
+        let cur = slot.insert(Cursor {
+            c: self.channel(rec, x),
             k: rec.k_start,
             k_end: rec.k_end,
-        };
-        self.may_toggle(&cursor.c, 0.0, rec.h, w, env, -a, a)
-            .then_some(cursor)
+        });
+        let w = [1.0, 1.0, rec.eh.0, rec.eh.1];
+        let (a, env) = (self.noise_a, rec.env0);
+        let open = self.may_toggle(&cur.c, 0.0, rec.h, w, env, -a, a);
+        if !open {
+            *slot = None;
+        }
+        open
     }
 
     /// Runs `op` with `ring` in place of the present ringing (to walk a recorded step).
