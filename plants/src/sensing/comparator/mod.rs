@@ -239,9 +239,6 @@ struct Ring {
     mag: f64,
 }
 
-/// The longest block of noise segments [`Front::scan_to`] bounds at once.
-const MAX_SPAN: u64 = 1 << 32;
-
 /// The three comparators, their filters, the coupled ringing and the noise.
 #[derive(Clone, Debug)]
 pub struct ComparatorBank {
@@ -762,22 +759,25 @@ impl Front {
         // once. A fresh one was opened because the whole step was not (see
         // `Front::open`), mostly for the filters' transient right after its start: it
         // starts with blocks of 4 segments and doubles from there.
-        let rest = (k_end / n - k / n + 1).min(MAX_SPAN);
+        let m_end = k_end / n; // the step's last noise segment
+        let rest = m_end - k / n + 1;
         let mut span = if k == c.k_s { rest.min(4) } else { rest };
         while k <= stop {
             let m = k / n; // noise sample index, one per segment
             if span > 1 {
                 self.work.blocks += 1;
-                let e = m.saturating_add(span).saturating_mul(n).saturating_sub(1);
-                let e = e.min(k_end);
+                // The block as far as the step goes: halving a span beyond the step's end
+                // would bound the same block again.
+                let span_in = span.min(m_end - m + 1);
+                let e = ((m + span_in) * n - 1).min(k_end);
                 if self.may_toggle_over(c, k, e, -a, a) {
                     // A small block that may toggle is usually busy at its start (a filter
                     // transient or ringing dying away): its first segment is tried with its
                     // own noise at once, rather than halves of the block first.
-                    span = if span <= 8 { 1 } else { span / 2 };
+                    span = if span_in <= 8 { 1 } else { span_in / 2 };
                 } else {
                     k = e + 1;
-                    span = (2 * span).min(MAX_SPAN);
+                    span = 2 * span_in;
                 }
                 continue;
             }
