@@ -800,32 +800,60 @@ impl Front {
     /// Decides ticks `k..=last` of `c`'s step one by one, with per-tick factors instead of
     /// an exp and a sincos at every tick, recording each toggle.
     fn walk(&mut self, c: &Channel, k: u64, last: u64, noise: f64) {
-        let (x, ch) = (c.x, c.x.index());
+        let x = c.x;
         self.work.ticks_scanned += last - k + 1;
         let (dp, dn) = self.decay(c, k);
-        let mut ep = c.a * dp;
-        let mut en = c.b * dn;
-        let mut zk = self.ring_at(k);
-        let ringing = zk != (0.0, 0.0);
+        let e = (c.a * dp, c.b * dn);
+        let zk = self.ring_at(k);
         let poly = [c.poly[0] + noise, c.poly[1], c.poly[2], c.poly[3]];
+        let tau = k as f64 * TICK_S - c.t0;
+        let from = (k, tau, e, zk);
+        // Without ringing the phasor stays 0 and adds nothing to the signal (but the sign
+        // of a zero, which no threshold test sees): a loop without it.
+        let out = if zk == (0.0, 0.0) {
+            self.walk_ticks::<false>(x, from, last, &poly)
+        } else {
+            self.walk_ticks::<true>(x, from, last, &poly)
+        };
+        *self.out.get_mut(x) = out;
+    }
+
+    /// [`Front::walk`]'s loop over channel `x`'s ticks `k..=last` from τ, the transients
+    /// (A·e^{−τ/τp}, B·e^{−τ/τn}) and the ringing phasor there (`from`), with P's
+    /// coefficients `poly` (noise included), `RING` if the phasor is not 0; returns the
+    /// output after the last tick.
+    #[inline(always)]
+    fn walk_ticks<const RING: bool>(
+        &mut self,
+        x: Phase,
+        (k, mut tau, (mut ep, mut en), mut zk): (u64, f64, (f64, f64), (f64, f64)),
+        last: u64,
+        poly: &[f64; 4],
+    ) -> bool {
         let (half_h, qp, qn, qr) = (self.half_h, self.q_p, self.q_n, self.q_ring);
-        let mut out = self.out.get(x);
-        let mut tau = k as f64 * TICK_S - c.t0;
+        let (ch, mut out) = (x.index(), self.out.get(x));
+        // The output toggles where sign·s passes h/2: above +h/2 when low, below −h/2
+        // when high (a negation is exact, so the test is the same).
+        let mut sign = if out { -1.0 } else { 1.0 };
         for kk in k..=last {
-            let s = horner(&poly, tau) + ep - en + zk.1;
-            if (!out && s > half_h) || (out && s < -half_h) {
+            let mut s = horner(poly, tau) + ep - en;
+            if RING {
+                s += zk.1;
+            }
+            if sign * s > half_h {
                 out = !out;
+                sign = -sign;
                 self.hist[ch].push(kk, out);
                 self.toggles += 1;
             }
             ep *= qp;
             en *= qn;
-            if ringing {
+            if RING {
                 zk = (zk.0 * qr.0 - zk.1 * qr.1, zk.0 * qr.1 + zk.1 * qr.0);
             }
             tau += TICK_S;
         }
-        *self.out.get_mut(x) = out;
+        out
     }
 
     /// Whether `c`'s output may toggle at a tick in `a..=b` of its step, with noise in
