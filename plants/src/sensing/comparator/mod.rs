@@ -760,10 +760,13 @@ impl Front {
         // `Front::open`), mostly for the filters' transient right after its start: it
         // starts with blocks of 4 segments and doubles from there.
         let m_end = k_end / n; // the step's last noise segment
-        let rest = m_end - k / n + 1;
+        // k's noise sample index, one per segment: divided once, then counted (a block
+        // or segment ends at a segment's end, or past `stop`).
+        let mut m = k / n;
+        let rest = m_end - m + 1;
         let mut span = if k == c.k_s { rest.min(4) } else { rest };
         while k <= stop {
-            let m = k / n; // noise sample index, one per segment
+            debug_assert_eq!(m, k / n);
             if span > 1 {
                 self.work.blocks += 1;
                 // The block as far as the step goes: halving a span beyond the step's end
@@ -777,6 +780,7 @@ impl Front {
                     span = if span_in <= 8 { 1 } else { span_in / 2 };
                 } else {
                     k = e + 1;
+                    m += span_in;
                     span = 2 * span_in;
                 }
                 continue;
@@ -793,6 +797,7 @@ impl Front {
                 span = 8;
             }
             k = seg_end + 1;
+            m += 1;
         }
         cur.k = k;
     }
