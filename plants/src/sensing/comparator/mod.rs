@@ -811,7 +811,7 @@ impl Front {
         let e = (c.a * dp, c.b * dn);
         let zk = self.ring_at(k);
         let poly = [c.poly[0] + noise, c.poly[1], c.poly[2], c.poly[3]];
-        let tau = k as f64 * TICK_S - c.t0;
+        let tau = tick_instant(k) - c.t0;
         let from = (k, tau, e, zk);
         // Without ringing the phasor stays 0 and adds nothing to the signal (but the sign
         // of a zero, which no threshold test sees): a loop without it.
@@ -875,7 +875,7 @@ impl Front {
     /// decays there, and the ringing's envelope at `a` (it only decays after).
     #[inline(always)]
     fn over(&self, c: &Channel, a: u64, b: u64) -> (f64, f64, [f64; 4], f64) {
-        let (ta, tb) = (a as f64 * TICK_S - c.t0, b as f64 * TICK_S - c.t0);
+        let (ta, tb) = (tick_instant(a) - c.t0, tick_instant(b) - c.t0);
         let (pa, na) = self.decay(c, a);
         let (pb, nb) = if a == b { (pa, na) } else { self.decay(c, b) };
         (ta, tb, [pa, na, pb, nb], self.ring_envelope_at(a))
@@ -937,7 +937,7 @@ impl Front {
                 _ => (h, (-h / self.tau_p).exp(), (-h / self.tau_n).exp()),
             };
         }
-        let ta = k_start as f64 * TICK_S - t0;
+        let ta = tick_instant(k_start) - t0;
         let first = if (ta - TICK_S).abs() < 1e-6 * TICK_S {
             (self.q_p, self.q_n)
         } else {
@@ -1123,6 +1123,15 @@ impl Front {
             .min()
             .map(|k| Ticks(k + self.delay))
     }
+}
+
+/// The instant of tick `k` \[s\], `k as f64 * TICK_S`: through i64, one conversion
+/// where u64's takes a dozen instructions on baseline x86-64, with the same value (every
+/// tick index is below 2⁶³).
+#[inline(always)]
+fn tick_instant(k: u64) -> f64 {
+    debug_assert!(k < 1 << 63);
+    (k as i64) as f64 * TICK_S
 }
 
 /// (min, max) of two finite values, as plain selects: `f64::min` and `max` also order
