@@ -1100,9 +1100,11 @@ impl Front {
     #[cold]
     #[inline(never)]
     fn stationary_value(&self, c: &Channel) -> f64 {
-        // g′(ts) = 0: e^{(1/τp − 1/τn)·ts} = (A·τn)/(B·τp).
-        let ts = (c.ap / c.bn).ln() / (1.0 / self.tau_p - 1.0 / self.tau_n);
-        let g = c.a * (-ts / self.tau_p).exp() - c.b * (-ts / self.tau_n).exp();
+        // g′(ts) = 0: e^{(1/τp − 1/τn)·ts} = (A·τn)/(B·τp), and there
+        // B·e^{−ts/τn} = (τn/τp)·A·e^{−ts/τp}: one exp for both terms.
+        let (inv_p, inv_n) = self.inv_tau;
+        let ts = (c.ap / c.bn).ln() / (inv_p - inv_n);
+        let g = c.a * (-ts * inv_p).exp() * (1.0 - self.tau_n * inv_p);
         c.stationary.set(Some(g));
         g
     }
