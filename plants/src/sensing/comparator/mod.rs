@@ -482,10 +482,17 @@ impl ComparatorBank {
     /// the output a delay back) and the newest step may be cut short from `now` on. Where
     /// the input is certain over the last `delay` ticks read of a step, the steps before
     /// do not matter: what any later read sees is the same.
+    ///
+    /// Inlined: at every update it finds nothing to do for each channel.
+    #[inline(always)]
     fn wake(&mut self, x: Phase, now: u64) {
-        let Some(from) = self.dormant[x.index()].take() else {
-            return;
-        };
+        if let Some(from) = self.dormant[x.index()].take() {
+            self.wake_from(x, from, now);
+        }
+    }
+
+    /// [`ComparatorBank::wake`] for channel `x`, undecided from recorded step `from` on.
+    fn wake_from(&mut self, x: Phase, from: u64, now: u64) {
         let newest = self.records.newest_seq();
         if from > newest || self.settle_end(x, newest, now) {
             return;
@@ -624,7 +631,17 @@ impl ComparatorBank {
 
     /// Ends the pending scans at tick `k_stop` (or their step's end): every tick a later
     /// read can reach (from the end − delay on) is decided exactly, or known.
+    ///
+    /// Inlined: at most updates and edges there are none.
+    #[inline(always)]
     fn finish_pending(&mut self, k_stop: u64) {
+        if self.pending.iter().any(Option::is_some) {
+            self.finish_pending_scans(k_stop);
+        }
+    }
+
+    /// [`ComparatorBank::finish_pending`] when a scan is pending.
+    fn finish_pending_scans(&mut self, k_stop: u64) {
         let f = &mut self.front;
         for slot in &mut self.pending {
             let Some(cur) = slot else { continue };
