@@ -670,6 +670,7 @@ impl ComparatorBank {
     }
 
     /// Earliest instant after `after` at which a watched output changes (delay included).
+    #[inline]
     pub fn next_visible_change(&self, after: Ticks, watch: Abc<bool>) -> Option<Ticks> {
         self.front.next_visible_change(after, watch)
     }
@@ -1133,8 +1134,25 @@ impl Front {
     }
 
     /// Earliest instant after `after` at which a watched output changes (delay included).
+    /// Inlined as a check of each watched channel's newest toggle: the engine asks at
+    /// every stop, and there usually is none.
+    #[inline(always)]
     fn next_visible_change(&self, after: Ticks, watch: Abc<bool>) -> Option<Ticks> {
         let t = after.0.saturating_sub(self.delay);
+        let any = Phase::ALL
+            .into_iter()
+            .any(|x| watch.get(x) && self.hist[x.index()].newest().is_some_and(|(k, _)| k > t));
+        if any {
+            self.first_visible_after(t, watch)
+        } else {
+            None
+        }
+    }
+
+    /// [`Front::next_visible_change`] once a watched channel has toggled after tick `t`.
+    #[cold]
+    #[inline(never)]
+    fn first_visible_after(&self, t: u64, watch: Abc<bool>) -> Option<Ticks> {
         Phase::ALL
             .into_iter()
             .filter(|&x| watch.get(x))
