@@ -25,7 +25,7 @@ mod state;
 use super::foh::Foh;
 use super::noise;
 use super::rc::{CubicRc, hermite, horner};
-use super::tick_powers::TickPowers;
+use super::tick_powers::{RealPairPowers, TickPowers};
 use crate::params::ComparatorParams;
 use drive_core::{Abc, Phase, TICK_S, Ticks};
 use records::{Record, Records};
@@ -294,6 +294,8 @@ struct Front {
     /// Powers of the per-tick filter decays and ringing rotation.
     pow_p: TickPowers,
     pow_n: TickPowers,
+    /// Both of them side by side, for the decays at a tick (see [`Front::decay`]).
+    pow_pn: RealPairPowers,
     pow_ring: TickPowers,
     /// Powers of the per-tick decay of the ringing's envelope.
     pow_env: TickPowers,
@@ -311,6 +313,8 @@ impl ComparatorBank {
     pub fn new(p: &ComparatorParams, seed: u64, v_term: &Abc<f64>, v_n: f64) -> Self {
         let offset = p.offset_v;
         let out = Abc::from_fn(|x| v_term.get(x) - v_n - offset.get(x) > 0.0);
+        let pow_p = TickPowers::new(-1.0 / p.phase_filter_tau_s, 0.0);
+        let pow_n = TickPowers::new(-1.0 / p.neutral_filter_tau_s, 0.0);
         let front = Front {
             tau_p: p.phase_filter_tau_s,
             tau_n: p.neutral_filter_tau_s,
@@ -332,8 +336,9 @@ impl ComparatorBank {
                 (d * cs, d * sn)
             },
             decay_cache: (f64::NAN, 0.0, 0.0),
-            pow_p: TickPowers::new(-1.0 / p.phase_filter_tau_s, 0.0),
-            pow_n: TickPowers::new(-1.0 / p.neutral_filter_tau_s, 0.0),
+            pow_p,
+            pow_n,
+            pow_pn: RealPairPowers::new(&pow_p, &pow_n),
             pow_ring: TickPowers::new(
                 -1.0 / p.ring_decay_s,
                 std::f64::consts::TAU * p.ring_frequency_hz,
@@ -719,8 +724,8 @@ impl Front {
     #[inline(always)]
     fn decay(&self, c: &Channel, k: u64) -> (f64, f64) {
         debug_assert!(k >= c.k_s, "tick {k} before the step's first, {}", c.k_s);
-        let n = k - c.k_s;
-        (c.base.0 * self.pow_p.real(n), c.base.1 * self.pow_n.real(n))
+        let (p, q) = self.pow_pn.at(k - c.k_s);
+        (c.base.0 * p, c.base.1 * q)
     }
 
     /// The ringing's envelope at instant `t` (not before the excitation): by table where
