@@ -63,6 +63,44 @@ impl TickPowers {
     }
 }
 
+/// Two real decays' powers side by side, (q₁ⁿ, q₂ⁿ): one index and one pair of loads
+/// for both (the comparators' filter decays are always asked for together). Each power
+/// is the one [`TickPowers::real`] gives, to the bit.
+#[derive(Copy, Clone, Debug)]
+pub struct RealPairPowers {
+    sigma: (f64, f64),
+    lo: [(f64, f64); LO],
+    hi: [(f64, f64); LO],
+}
+
+impl RealPairPowers {
+    /// The powers of two real decays' tables (ω = 0).
+    pub fn new(a: &TickPowers, b: &TickPowers) -> Self {
+        debug_assert!(a.omega == 0.0 && b.omega == 0.0, "real decays only");
+        RealPairPowers {
+            sigma: (a.sigma, b.sigma),
+            lo: std::array::from_fn(|i| (a.lo[i].0, b.lo[i].0)),
+            hi: std::array::from_fn(|j| (a.hi[j].0, b.hi[j].0)),
+        }
+    }
+
+    /// (q₁ⁿ, q₂ⁿ), as [`TickPowers::real`] of each.
+    #[inline(always)]
+    pub fn at(&self, n: u64) -> (f64, f64) {
+        let h = (n / LO as u64) as usize;
+        match self.hi.get(h) {
+            Some(w) => {
+                let l = self.lo[(n % LO as u64) as usize];
+                (l.0 * w.0, l.1 * w.1)
+            }
+            None => (
+                (self.sigma.0 * n as f64 * TICK_S).exp(),
+                (self.sigma.1 * n as f64 * TICK_S).exp(),
+            ),
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -89,6 +127,12 @@ mod tests {
             let want = x.exp();
             let tol = (4.0 + x.abs()) * f64::EPSILON * want;
             assert!((d.real(n) - want).abs() <= tol, "n = {n}");
+        }
+        // A pair of real decays gives each one's powers exactly.
+        let e = TickPowers::new(-1.0 / 1.0e-6, 0.0);
+        let pair = RealPairPowers::new(&d, &e);
+        for n in [0u64, 1, 63, 64, 65, 4095, 4096, 5000] {
+            assert_eq!(pair.at(n), (d.real(n), e.real(n)), "n = {n}");
         }
     }
 }
