@@ -155,18 +155,17 @@ fn dot(a: &[f64; 3], b: &[f64; 3]) -> f64 {
 /// λr·ωm(t)·f(φ + δ) is such a forcing (see [`Forcing`]). Holding the speed constant
 /// instead errs by ≈ λr·α′·h³/(6L) per step, 5e-7 A at h = 40 µs: more than RK4's.
 #[derive(Copy, Clone, Debug)]
-pub struct Response {
+pub struct Response<'a> {
+    /// The state's modes (eigenvectors, eigenvalues, equilibria), borrowed: not copied
+    /// for every step.
+    md: &'a Modal,
     /// The part of i0 outside the modes (rounding-size; carried unchanged, as by RK4).
     perp: [f64; 3],
-    w: [[f64; 3]; 2],
-    zc: [f64; 2],
-    lambda: [f64; 2],
     /// The particular solution Σ_k t^k·(P_k·sin φ + R_k·cos φ) of each mode.
     p: [[f64; 3]; 2],
     r: [[f64; 3]; 2],
     /// Transient amplitudes z(0) − z_c − P_0·sin φ0 − R_0·cos φ0.
     tr: [f64; 2],
-    m: usize,
 }
 
 /// The back-EMF over a step: amplitude per unit shape λr·(ωm0 + α·t + α′·t²/2) =
@@ -188,19 +187,16 @@ pub struct Forcing {
     pub d2: f64,
 }
 
-impl Response {
+impl<'a> Response<'a> {
     /// The response to forcing `f` from currents `i0` at the angle whose sine and cosine
     /// are given.
-    pub fn new(md: &Modal, i0: &[f64; 3], (s0, c0): (f64, f64), f: &Forcing) -> Self {
+    pub fn new(md: &'a Modal, i0: &[f64; 3], (s0, c0): (f64, f64), f: &Forcing) -> Self {
         let mut rsp = Response {
+            md,
             perp: *i0,
-            w: md.w,
-            zc: md.zc,
-            lambda: md.lambda,
             p: [[0.0; 3]; 2],
             r: [[0.0; 3]; 2],
             tr: [0.0; 2],
-            m: md.m,
         };
         let om = f.omega;
         for j in 0..md.m {
@@ -239,7 +235,7 @@ impl Response {
     /// e^{λ_j·t} for the modes (the caller squares these to double t).
     pub fn decays(&self, t: f64) -> [f64; 2] {
         let mut d = [0.0; 2];
-        for (dj, l) in d.iter_mut().zip(&self.lambda[..self.m]) {
+        for (dj, l) in d.iter_mut().zip(&self.md.lambda[..self.md.m]) {
             *dj = (l * t).exp();
         }
         d
@@ -249,12 +245,12 @@ impl Response {
     /// (`s`, `c`) and the modes have decayed by `decays`.
     pub fn currents(&self, t: f64, (s, c): (f64, f64), decays: [f64; 2]) -> [f64; 3] {
         let mut i = self.perp;
-        for (j, d) in decays.iter().enumerate().take(self.m) {
+        for (j, d) in decays.iter().enumerate().take(self.md.m) {
             let (p, r) = (self.p[j], self.r[j]);
             let ps = p[0] + t * (p[1] + t * p[2]);
             let rc = r[0] + t * (r[1] + t * r[2]);
-            let z = self.zc[j] + ps * s + rc * c + d * self.tr[j];
-            for (ik, wk) in i.iter_mut().zip(&self.w[j]) {
+            let z = self.md.zc[j] + ps * s + rc * c + d * self.tr[j];
+            for (ik, wk) in i.iter_mut().zip(&self.md.w[j]) {
                 *ik += z * wk;
             }
         }

@@ -10,7 +10,7 @@
 //! (regeneration, diode freewheeling into the supply) clips to code 0, as on a single-supply
 //! amplifier.
 
-use super::rc::CubicRc;
+use super::rc::{CubicRc, ExpTable};
 use crate::params::CurrentSenseParams;
 use drive_core::{TICK_S, Ticks};
 use std::collections::VecDeque;
@@ -23,6 +23,8 @@ pub struct CurrentSense {
     volts_per_amp: f64,
     max_v: f64,
     tau: f64,
+    /// e^{−t/T} by table: the transient's decay at each sample and piece's end.
+    decay: ExpTable<1>,
     codes: f64,
     max_code: u16,
     full_scale: f64,
@@ -47,13 +49,15 @@ struct Pieces {
 }
 
 impl Pieces {
-    /// The piece that holds τ.
-    fn at(&self, t: f64) -> f64 {
+    /// The piece that holds τ, its transient decayed by `decay`'s e^{−(τ − τa)/T}.
+    #[inline]
+    fn at(&self, t: f64, decay: &ExpTable<1>) -> f64 {
         let k = self.seg[..self.n]
             .iter()
             .rposition(|s| s.from <= t)
             .unwrap_or(0);
-        self.seg[k].at(t)
+        let s = &self.seg[k];
+        s.at_decayed(t, decay.at(t - s.from)[0])
     }
 }
 
@@ -63,10 +67,12 @@ impl CurrentSense {
     pub fn new(p: &CurrentSenseParams, shunt_ohm: f64, longest_update_s: f64) -> Self {
         let conv = p.conversion().0;
         let per_update = (longest_update_s / TICK_S / conv as f64).ceil() as usize;
+        let tau = 1.0 / (std::f64::consts::TAU * p.filter_cutoff_hz);
         CurrentSense {
             volts_per_amp: shunt_ohm * p.amplifier_gain,
             max_v: p.amplifier_max_v,
-            tau: 1.0 / (std::f64::consts::TAU * p.filter_cutoff_hz),
+            tau,
+            decay: ExpTable::new([-1.0 / tau]),
             codes: (1u32 << p.adc_bits) as f64,
             max_code: ((1u32 << p.adc_bits) - 1) as u16,
             full_scale: p.adc_full_scale_v,
@@ -171,7 +177,7 @@ impl CurrentSense {
         bounds[1..n_b].sort_by(f64::total_cmp);
         bounds[n_b] = 1.0;
         // Built in place: the pieces are the chain's record of this update.
-        let (y0, tau) = (self.y, self.tau);
+        let (y0, tau, decay) = (self.y, self.tau, &self.decay);
         let out = &mut self.last.0;
         out.n = 0;
         let mut y = y0;
@@ -188,7 +194,7 @@ impl CurrentSense {
                 coeffs
             };
             let seg = CubicRc::new(w[0] * h, y, c, tau);
-            y = seg.at(w[1] * h);
+            y = seg.at_decayed(w[1] * h, decay.at(w[1] * h - w[0] * h)[0]);
             out.seg[out.n] = seg;
             out.n += 1;
         }
@@ -206,7 +212,11 @@ impl CurrentSense {
         self.last.1 = t0;
         let k_end = Ticks::at_or_before(t1).0;
         while self.next_sample <= k_end {
-            let code = self.quantise(self.last.0.at(self.next_sample as f64 * TICK_S - t0));
+            let code = self.quantise(
+                self.last
+                    .0
+                    .at(self.next_sample as f64 * TICK_S - t0, &self.decay),
+            );
             if self.results.len() == self.results.capacity() {
                 self.results.pop_front();
             }
@@ -220,7 +230,7 @@ impl CurrentSense {
     /// and the filter takes its value at `t`.
     pub fn truncate_at(&mut self, t: f64) {
         let (pieces, t0) = &self.last;
-        self.y = pieces.at(t - t0);
+        self.y = pieces.at(t - t0, &self.decay);
         let k = Ticks::at_or_before(t).0;
         while self.results.back().is_some_and(|r| r.0 - self.conv > k) {
             self.results.pop_back();

@@ -4,6 +4,8 @@
 //! `y(τ) = p(τ) + (y_a − p(τa))·e^{−(τ − τa)/T}` from `y(τa) = y_a`, where
 //! `p = u − T·u′ + T²·u″ − T³·u‴` is the polynomial particular solution.
 
+use drive_core::TICK_S;
+
 /// The filter over one piece of input, from τa on.
 #[derive(Copy, Clone, Debug, PartialEq)]
 pub struct CubicRc {
@@ -54,6 +56,78 @@ impl CubicRc {
     }
 }
 
+/// e^{r·t} for t ≥ 0 at K fixed rates r [1/s] (one lookup serves all), without a libm
+/// call and within a few ulps of `exp`: t = n·s + d with n whole and |d| ≤ s/2, where
+/// e^{r·n·s} = lo[n mod 64]·hi[n div 64] from directly computed powers (as in the
+/// comparators' tick powers) and e^{r·d} is a Taylor polynomial. The step s is the master
+/// tick, or finer for a rate fast enough that |r|·s/2 would exceed 2^-9; t beyond the
+/// table's 64² steps (82 µs at the tick) takes `exp`. A cache of its rates: rebuilt with them.
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub struct ExpTable<const K: usize> {
+    rate: [f64; K],
+    /// s and 1/s \[s, 1/s\].
+    step: f64,
+    inv_step: f64,
+    lo: [[f64; K]; SPLIT],
+    hi: [[f64; K]; SPLIT],
+}
+
+const SPLIT: usize = 64;
+
+/// The largest |r·d| the polynomial is used for.
+const REDUCED_MAX: f64 = 1.0 / 512.0;
+
+impl<const K: usize> ExpTable<K> {
+    /// The table of e^{r·t} for each of `rate` [1/s].
+    pub fn new(rate: [f64; K]) -> Self {
+        let fastest = rate.iter().fold(0.0f64, |m, r| m.max(r.abs()));
+        // A zero rate gives an infinite bound, so the tick.
+        let step = TICK_S.min(2.0 * REDUCED_MAX / fastest);
+        let pow = |n: usize| rate.map(|r| (r * (n as f64 * step)).exp());
+        ExpTable {
+            rate,
+            step,
+            inv_step: 1.0 / step,
+            lo: std::array::from_fn(pow),
+            hi: std::array::from_fn(|j| pow(j * SPLIT)),
+        }
+    }
+
+    /// e^{r·t} for each rate, `t` \[s\] ≥ 0 (anything else takes `exp`).
+    #[inline]
+    pub fn at(&self, t: f64) -> [f64; K] {
+        // t/s rounded to the nearest whole n by adding 2^52 (the sum's ulp is 1), which
+        // leaves n in the low bits: no conversion instruction, and a negative, NaN or huge
+        // t/s gives bits outside 0..64² (another exponent), sent to `exp`.
+        let r = t * self.inv_step + ROUND;
+        let n = r.to_bits().wrapping_sub(ROUND.to_bits()) as usize;
+        match self.hi.get(n / SPLIT) {
+            Some(hi) => {
+                let (lo, d) = (&self.lo[n % SPLIT], t - (r - ROUND) * self.step);
+                std::array::from_fn(|j| lo[j] * hi[j] * exp_reduced(self.rate[j] * d))
+            }
+            None => self.rate.map(|r| (r * t).exp()),
+        }
+    }
+}
+
+/// 2^52: added to a non-negative x below 2^51, it rounds x to a whole number.
+const ROUND: f64 = 4_503_599_627_370_496.0;
+
+impl<const K: usize> Default for ExpTable<K> {
+    /// Rates of zero.
+    fn default() -> Self {
+        ExpTable::new([0.0; K])
+    }
+}
+
+/// e^x for |x| ≤ 2^-9 by Taylor to degree 5: the remainder, ≤ x⁶/720 < 1e-19, is far
+/// below an ulp.
+#[inline(always)]
+fn exp_reduced(x: f64) -> f64 {
+    1.0 + x * (1.0 + x * (0.5 + x * (1.0 / 6.0 + x * (1.0 / 24.0 + x * (1.0 / 120.0)))))
+}
+
 /// Σ c_k·τ^k.
 #[inline(always)]
 pub fn horner(c: &[f64; 4], t: f64) -> f64 {
@@ -93,6 +167,27 @@ mod tests {
                 (2e-6 * dy - (horner(&c, t) - f.at(t))).abs() < 1e-6,
                 "τ = {t}"
             );
+        }
+    }
+
+    #[test]
+    fn table_exp_matches_exp() {
+        // The current sense's filter (τ = 6.37 µs) and a fast rate that needs a finer
+        // step; on and off the tick, at the table's seams, beyond it and below zero.
+        for rate in [-1.0 / 6.366e-6, -2.5e3, -3e7, 0.0] {
+            let e = ExpTable::new([rate, 0.5 * rate]);
+            for t in [
+                0.0, 1e-9, 20e-9, 30e-9, 1.28e-6, 1.3e-6, 17.123e-6, 40e-6, 81.9e-6, 90e-6,
+                -1e-9,
+            ] {
+                let got = e.at(t);
+                for (g, r) in got.into_iter().zip([rate, 0.5 * rate]) {
+                    // exp of a rounded argument errs by |x|·ε itself; the table by a few ulps.
+                    let want = (r * t).exp();
+                    let tol = (4.0 + (r * t).abs()) * f64::EPSILON * want;
+                    assert!((g - want).abs() <= tol, "rate {r}, t {t}: {g} vs {want}");
+                }
+            }
         }
     }
 
