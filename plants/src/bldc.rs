@@ -216,11 +216,14 @@ pub struct BldcPlant {
     modal: bool,
     /// The step integrated ahead of `t`, if any.
     lookahead: Option<Lookahead>,
-    /// An angle near the present one, with its sine and cosine: the last step's start, from
-    /// which the angle now is reached by angle addition (any consistent triple is valid).
+    /// An angle near the present one, with its sine and cosine: the present step's start,
+    /// or the last committed step's end, from which the angle now is reached by angle
+    /// addition (any consistent triple is valid).
     base_hint: (f64, f64, f64),
-    /// The derivative at the committed state, while the dynamics stay as they were.
-    fsal: Option<(State, State)>,
+    /// The derivative at the committed state `x`, while neither the state nor the dynamics
+    /// have changed since (whatever changes either clears it): the state itself is not
+    /// kept to compare, a copy and a compare of 16 values a step.
+    fsal: Option<State>,
     /// The last committed step's end angle with its sine and cosine (from the step's
     /// rotation): the next step starting at that angle takes them as its base instead of a
     /// fresh `sin_cos`.
@@ -1016,6 +1019,10 @@ impl BldcPlant {
         event: Option<Phase>,
     ) -> Option<PlantStop> {
         self.end_angle = Some((x1[THETA], sc1.0, sc1.1));
+        // The back-EMF at the committed state (a re-resolve after a gate change or an
+        // event, an observation) then takes this sine and cosine as they are, not by angle
+        // addition from the step's start again: the same values, since they were made so.
+        self.base_hint = (x1[THETA], sc1.0, sc1.1);
         self.commit(x1, t1);
         if let Some(p) = event {
             if self.modes.get(p).is_diode() {
@@ -1066,7 +1073,7 @@ impl BldcPlant {
             self.muted = [false; 3];
         }
         self.start = s1;
-        self.fsal = Some((self.x, f1));
+        self.fsal = Some(f1);
         None
     }
 
@@ -1123,6 +1130,7 @@ impl BldcPlant {
             self.cmp.truncate_at(self.tick.0);
             self.cur.truncate_at(self.t);
             self.x = self.state();
+            self.fsal = None;
             let la = self.lookahead.take().expect("checked above");
             self.start = self.solve_near(&self.x, la.base);
             self.same_instant_events = 0;
@@ -1216,7 +1224,7 @@ impl BldcPlant {
             // First same as last: the derivative at the end of the previous step, when
             // nothing has changed the dynamics since.
             let k1 = match self.fsal.take() {
-                Some((x, f)) if x == x0 => f,
+                Some(f) => f,
                 // Else the network was just solved here (a gate change, an event, a
                 // settled lookahead): its di/dt and powers make the derivative.
                 _ => {

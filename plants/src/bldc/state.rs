@@ -112,11 +112,11 @@ impl Persist for BldcPlant {
         self.lookahead.save(w);
         self.base_hint.save(w);
         // Fixed size: zeros in place of an absent derivative.
-        let zero = (State::zeros(), State::zeros());
+        // The derivative's state is the committed one (see `BldcPlant::fsal`).
+        let zero = State::zeros();
         w.u8(u8::from(self.fsal.is_some()));
-        let (x, f) = self.fsal.as_ref().unwrap_or(&zero);
-        save_x(x, w);
-        save_x(f, w);
+        save_x(if self.fsal.is_some() { &self.x } else { &zero }, w);
+        save_x(self.fsal.as_ref().unwrap_or(&zero), w);
         self.end_angle.save(w);
         self.reported.save(w);
         self.stats.save(w);
@@ -145,7 +145,8 @@ impl Persist for BldcPlant {
         let (mut x, mut f) = (State::zeros(), State::zeros());
         restore_x(r, "fsal.0", &mut x)?;
         restore_x(r, "fsal.1", &mut f)?;
-        self.fsal = some.then_some((x, f));
+        // A derivative saved for another state than the committed one is not used.
+        self.fsal = (some && x == self.x).then_some(f);
         r.field("end_angle", &mut self.end_angle)?;
         if let Some((_, s, c)) = self.end_angle {
             unit_circle("end_angle", (s, c))?;
