@@ -129,24 +129,26 @@ pub struct PlantStats {
 
 /// Cubic Hermite interpolation of one step (states and derivatives at both ends), used
 /// to find where a freewheeling current crosses zero. It borrows the step's states: a
-/// copy of four states per step costs more than the search usually does.
+/// copy of four states per step costs more than the search usually does. Of the end's
+/// derivative it takes the currents' alone (the network's di/dt there), which is all the
+/// search interpolates.
 struct Dense<'a> {
     x0: &'a State,
     f0: &'a State,
     x1: &'a State,
-    f1: &'a State,
+    di1: [f64; 3],
     h: f64,
 }
 
 impl Dense<'_> {
-    /// Component `k` of the interpolated state at fraction `s` ∈ [0, 1] of the step.
+    /// Current `k` (0..3) of the interpolated state at fraction `s` ∈ [0, 1] of the step.
     fn component(&self, k: usize, s: f64) -> f64 {
         let (s2, s3) = (s * s, s * s * s);
         let h00 = 2.0 * s3 - 3.0 * s2 + 1.0;
         let h10 = (s3 - 2.0 * s2 + s) * self.h;
         let h01 = 3.0 * s2 - 2.0 * s3;
         let h11 = (s3 - s2) * self.h;
-        self.x0[k] * h00 + self.f0[k] * h10 + self.x1[k] * h01 + self.f1[k] * h11
+        self.x0[k] * h00 + self.f0[k] * h10 + self.x1[k] * h01 + self.di1[k] * h11
     }
 }
 
@@ -166,9 +168,8 @@ struct Lookahead {
     t1: f64,
     x1: State,
     s1: Solution,
-    /// The derivative at the end.
-    f1: State,
-    /// sin θ, cos θ at the end (see `BldcPlant::end_angle`).
+    /// sin θ, cos θ at the end (see `BldcPlant::end_angle`); with `s1` they make the
+    /// derivative there when it is needed (see `BldcPlant::fsal`).
     sc1: (f64, f64),
     event: Option<Phase>,
 }
@@ -216,11 +217,17 @@ pub struct BldcPlant {
     modal: bool,
     /// The step integrated ahead of `t`, if any.
     lookahead: Option<Lookahead>,
-    /// An angle near the present one, with its sine and cosine: the last step's start, from
-    /// which the angle now is reached by angle addition (any consistent triple is valid).
+    /// An angle near the present one, with its sine and cosine: the present step's start,
+    /// or the last committed step's end, from which the angle now is reached by angle
+    /// addition (any consistent triple is valid).
     base_hint: (f64, f64, f64),
-    /// The derivative at the committed state, while the dynamics stay as they were.
-    fsal: Option<(State, State)>,
+    /// Whether the committed state `x` is the last step's end, with neither the state nor
+    /// the dynamics changed since (whatever changes either clears it): the next step then
+    /// takes the derivative there from that step's own network solution (`start`) and
+    /// back-EMF at its end angle (`end_angle`, before θ's wrap), first same as last. It is
+    /// made when asked for, not at every step's end: most steps end at a gate change or a
+    /// diode event, which re-resolves the network first.
+    fsal: bool,
     /// The last committed step's end angle with its sine and cosine (from the step's
     /// rotation): the next step starting at that angle takes them as its base instead of a
     /// fresh `sin_cos`.
@@ -280,7 +287,7 @@ impl BldcPlant {
             reported: Ticks::ZERO,
             lookahead: None,
             base_hint: (0.0, 0.0, 1.0),
-            fsal: None,
+            fsal: false,
             end_angle: None,
             stats: PlantStats::default(),
             params,
@@ -307,7 +314,7 @@ impl BldcPlant {
     /// kinetic energy in [`EnergyLedger`] counts the inertia in force.
     pub fn set_load(&mut self, load: Load) {
         self.settle();
-        self.fsal = None;
+        self.fsal = false;
         self.load = load;
         self.inertia = self.params.motor.inertia_kgm2 + load.inertia_kgm2;
         self.inv_inertia = 1.0 / self.inertia;
@@ -390,12 +397,13 @@ impl BldcPlant {
         (f, f.map(|v| k * v))
     }
 
-    /// d(i_shunt)/dt for state derivative `f`: the shunt carries the low-side currents back.
-    fn shunt_slope(&self, f: &State) -> f64 {
+    /// d(i_shunt)/dt for the currents' rates `di`: the shunt carries the low-side currents
+    /// back.
+    fn shunt_slope(&self, di: [f64; 3]) -> f64 {
         Phase::ALL
             .into_iter()
             .filter(|p| self.modes.get(*p).is_low())
-            .map(|p| -f[p.index()])
+            .map(|p| -di[p.index()])
             .sum()
     }
 
@@ -414,12 +422,13 @@ impl BldcPlant {
     }
 
     /// The comparators' knots at the ends of a step of `h` from `x0` (derivative `f0`,
-    /// network `s0`) to `x1` (`f1`, `s1`), inside the step that starts at `base` (see
-    /// [`Knot`]). Steps up to [`CHORD_S`] keep every voltage on its chord.
+    /// network `s0`) to `x1` (network `s1`, sin θ and cos θ `sc1`), inside the step that
+    /// starts at `base` (see [`Knot`]). Steps up to [`CHORD_S`] keep every voltage on its
+    /// chord; longer ones take the end's derivative, made here for them alone.
     fn knots(
         &self,
         (x0, f0, s0): (&State, &State, &Solution),
-        (x1, f1, s1): (&State, &State, &Solution),
+        (x1, s1, sc1): (&State, &Solution, (f64, f64)),
         h: f64,
         base: (f64, f64, f64),
     ) -> (Knot, Knot) {
@@ -428,13 +437,18 @@ impl BldcPlant {
         let bend = h > CHORD_S + 0.5 * drive_core::TICK_S && follows.contains(&true);
         let knot = |x: &State, f: &State, s: &Solution| {
             let mut k = Knot::driven(s.v_term, s.v_n);
-            if bend {
-                let de = self.emf_rate(x, f, base);
-                k.emf_rate = Abc::from_fn(|p| follows[p.index()].then_some(de[p.index()]));
-            }
+            let de = self.emf_rate(x, f, base);
+            k.emf_rate = Abc::from_fn(|p| follows[p.index()].then_some(de[p.index()]));
             k
         };
-        (knot(x0, f0, s0), knot(x1, f1, s1))
+        if !bend {
+            return (
+                Knot::driven(s0.v_term, s0.v_n),
+                Knot::driven(s1.v_term, s1.v_n),
+            );
+        }
+        let f1 = self.end_derivative(x1, s1, (x1[THETA], sc1.0, sc1.1));
+        (knot(x0, f0, s0), knot(x1, &f1, s1))
     }
 
     /// The angle, sine and cosine a step starts from: every evaluation inside the step
@@ -472,14 +486,10 @@ impl BldcPlant {
         self.assemble(x, &f, di, &p)
     }
 
-    /// The derivative and the network's solution at one state (a step's end, where both
-    /// are needed): the solution's di/dt and powers make the derivative, so the back-EMF
-    /// and the network are evaluated once.
-    fn deriv_and_solution(
-        &self,
-        x: &State,
-        base: (f64, f64, f64),
-    ) -> (State, Solution, (f64, f64)) {
+    /// The network's solution at a step's end inside the step that starts at `base`, with
+    /// sin θ and cos θ there: the derivative follows from them when it is needed (see
+    /// [`BldcPlant::end_derivative`]).
+    fn solution_at(&self, x: &State, base: (f64, f64, f64)) -> (Solution, (f64, f64)) {
         let sc = emf::sin_cos_near(x[THETA], base);
         let f = emf::shape_with(&self.shape, x[THETA], sc);
         let k = self.lambda * self.pp * x[OMEGA];
@@ -489,11 +499,15 @@ impl BldcPlant {
             &Self::currents(x),
             &f.map(|v| k * v),
         );
-        (
-            self.assemble(&dynamic(x), &f, s.di.to_array(), &s.powers),
-            s,
-            sc,
-        )
+        (s, sc)
+    }
+
+    /// The state derivative at `x`, whose network solution is `s` and whose angle with its
+    /// sine and cosine is `(θ, sin θ, cos θ)`: the solution's di/dt and powers make it, so
+    /// the back-EMF and the network are not evaluated again.
+    fn end_derivative(&self, x: &State, s: &Solution, (th, sn, cs): (f64, f64, f64)) -> State {
+        let f = emf::shape_with(&self.shape, th, (sn, cs));
+        self.assemble(&dynamic(x), &f, s.di.to_array(), &s.powers)
     }
 
     /// The state derivative from the network's di/dt and powers `p` at state `x`, whose
@@ -889,7 +903,7 @@ impl BldcPlant {
         if y0 <= 0.0 || y1 < 0.0 {
             return None;
         }
-        let (g0, g1) = (sign * d.f0[k] * d.h, sign * d.f1[k] * d.h);
+        let (g0, g1) = (sign * d.f0[k] * d.h, sign * d.di1[k] * d.h);
         // d/ds of the Hermite cubic: a·s² + b·s + c.
         let a = 6.0 * (y0 - y1) + 3.0 * (g0 + g1);
         let b = 6.0 * (y1 - y0) - 4.0 * g0 - 2.0 * g1;
@@ -918,7 +932,7 @@ impl BldcPlant {
 
     /// Re-resolves the conduction state after an event (see [`Circuit::resolve`]).
     fn refresh_start_at(&mut self, at_clamp: Option<Phase>, keep_open: Option<Phase>) {
-        self.fsal = None;
+        self.fsal = false;
         let (_, e) = self.emf_of(&self.x);
         let i = Self::currents(&self.x);
         (self.modes, self.start) =
@@ -929,13 +943,6 @@ impl BldcPlant {
                     self.circuit.solve_planned(plan, m, &i, &e)
                 });
         self.lin = circuit::state_index(&self.modes);
-    }
-
-    /// The clock edge (not before `now`) at which the first watched change not yet reported
-    /// must be sampled.
-    fn pending_sample(&self, watch: Watch, now: Ticks) -> Option<Ticks> {
-        self.unreported(watch)
-            .map(|tv| Self::sample_edge(tv, watch, now))
     }
 
     /// When the first watched change not yet reported becomes visible.
@@ -1004,18 +1011,22 @@ impl BldcPlant {
         self.stats.steps += 1;
     }
 
-    /// Commits a step ending at `t1` with derivative `f1` and sin θ, cos θ `sc1` there
-    /// (handling its diode event, if any).
+    /// Commits a step ending at `t1` with sin θ, cos θ `sc1` there (handling its diode
+    /// event, if any).
     fn finish_step(
         &mut self,
         x1: State,
-        (f1, sc1): (State, (f64, f64)),
+        sc1: (f64, f64),
         t0: f64,
         t1: f64,
         s1: Solution,
         event: Option<Phase>,
     ) -> Option<PlantStop> {
         self.end_angle = Some((x1[THETA], sc1.0, sc1.1));
+        // The back-EMF at the committed state (a re-resolve after a gate change or an
+        // event, an observation) then takes this sine and cosine as they are, not by angle
+        // addition from the step's start again: the same values, since they were made so.
+        self.base_hint = (x1[THETA], sc1.0, sc1.1);
         self.commit(x1, t1);
         if let Some(p) = event {
             if self.modes.get(p).is_diode() {
@@ -1066,7 +1077,7 @@ impl BldcPlant {
             self.muted = [false; 3];
         }
         self.start = s1;
-        self.fsal = Some((self.x, f1));
+        self.fsal = true;
         None
     }
 
@@ -1094,11 +1105,18 @@ impl BldcPlant {
         }
     }
 
-    /// Serves a stop from the step already integrated ahead, or finishes that step.
-    fn serve_lookahead(&mut self, until: Ticks, watch: Watch) -> Option<PlantStop> {
+    /// Serves a stop from the step already integrated ahead, or finishes that step; then
+    /// `known` gets the first watched change not yet reported (see `BldcPlant::step_to`).
+    fn serve_lookahead(
+        &mut self,
+        until: Ticks,
+        watch: Watch,
+        known: &mut Option<Option<Ticks>>,
+    ) -> Option<PlantStop> {
         let t1 = self.lookahead.as_ref()?.t1;
         let t_end = until.seconds();
-        if let Some(p) = self.pending_sample(watch, self.tick.0) {
+        let unreported = self.unreported(watch);
+        if let Some(p) = unreported.map(|tv| Self::sample_edge(tv, watch, self.tick.0)) {
             let ps = p.seconds();
             if ps < t1 - 1e-15 && ps <= t_end + 1e-15 {
                 self.serve_at(p);
@@ -1114,7 +1132,9 @@ impl BldcPlant {
             return Some(PlantStop::Reached);
         }
         let la = self.lookahead.take()?;
-        self.finish_step(la.x1, (la.f1, la.sc1), la.t0, la.t1, la.s1, la.event)
+        let stop = self.finish_step(la.x1, la.sc1, la.t0, la.t1, la.s1, la.event);
+        *known = Some(unreported);
+        stop
     }
 
     /// Ends any lookahead at the present time, before the dynamics change.
@@ -1123,6 +1143,7 @@ impl BldcPlant {
             self.cmp.truncate_at(self.tick.0);
             self.cur.truncate_at(self.t);
             self.x = self.state();
+            self.fsal = false;
             let la = self.lookahead.take().expect("checked above");
             self.start = self.solve_near(&self.x, la.base);
             self.same_instant_events = 0;
@@ -1175,13 +1196,16 @@ impl BldcPlant {
     /// [`Plant::advance`] without the comparator bookkeeping around it.
     fn step_to(&mut self, until: Ticks, watch: Watch) -> PlantStop {
         let t_end = until.seconds();
+        // The first watched change not yet reported, as found at the end of the last step
+        // (nothing since has moved the comparators or the report): asked once a step.
+        let mut known = None;
         loop {
-            if let Some(stop) = self.serve_lookahead(until, watch) {
+            if let Some(stop) = self.serve_lookahead(until, watch, &mut known) {
                 return stop;
             }
             let t0 = self.t;
             let (now, on_tick) = self.tick;
-            let unreported = self.unreported(watch);
+            let unreported = known.take().unwrap_or_else(|| self.unreported(watch));
             let pending = unreported.map(|tv| Self::sample_edge(tv, watch, now));
             if on_tick && pending == Some(now) {
                 self.reported = now;
@@ -1213,12 +1237,12 @@ impl BldcPlant {
                 _ => Self::base(&x0),
             };
             self.base_hint = b0;
-            // First same as last: the derivative at the end of the previous step, when
-            // nothing has changed the dynamics since.
-            let k1 = match self.fsal.take() {
-                Some((x, f)) if x == x0 => f,
-                // Else the network was just solved here (a gate change, an event, a
-                // settled lookahead): its di/dt and powers make the derivative.
+            // The derivative here from the network's solution here (`start`): first same
+            // as last, the previous step's end derivative when nothing has changed the
+            // dynamics since (taken at that step's end angle, before θ's wrap); else the
+            // network was just solved here (a gate change, an event, a settled lookahead).
+            let angle = match (std::mem::take(&mut self.fsal), self.end_angle) {
+                (true, Some(e)) => e,
                 _ => {
                     // A state gone non-finite has no solution to compare (NaN ≠ NaN); the
                     // run goes on and its summary reports it.
@@ -1231,45 +1255,40 @@ impl BldcPlant {
                         },
                         "the network solution at the step's start is stale"
                     );
-                    let f = emf::shape_with(&self.shape, x0[THETA], (b0.1, b0.2));
-                    self.assemble(
-                        &dynamic(&x0),
-                        &f,
-                        self.start.di.to_array(),
-                        &self.start.powers,
-                    )
+                    (x0[THETA], b0.1, b0.2)
                 }
             };
-            let f0 = k1;
-            let mut x1 = self.integrate_from(&x0, t1 - t0, b0, &k1);
-            let (mut f1, mut s1, mut sc1) = self.deriv_and_solution(&x1, b0);
+            let f0 = self.end_derivative(&x0, &self.start, angle);
+            let mut x1 = self.integrate_from(&x0, t1 - t0, b0, &f0);
+            let (mut s1, mut sc1) = self.solution_at(&x1, b0);
             let mut event = None;
             let step = Dense {
                 x0: &x0,
                 f0: &f0,
                 x1: &x1,
-                f1: &f1,
+                di1: s1.di.to_array(),
                 h: t1 - t0,
             };
             if let Some((h, p, at)) = self.first_event(&step, &s1, b0) {
                 // The step to the event is integrated (not interpolated), so the energy
                 // integrals stay consistent with the currents.
                 x1 = at.unwrap_or_else(|| self.integrate_from(&x0, h, b0, &f0));
-                (f1, s1, sc1) = self.deriv_and_solution(&x1, b0);
+                (s1, sc1) = self.solution_at(&x1, b0);
                 t1 = t0 + h;
                 event = Some(p);
             }
             self.cmp.forget_history(Ticks::at_or_before(t0), unreported);
-            let (k0, k1) = self.knots((&x0, &f0, &self.start), (&x1, &f1, &s1), t1 - t0, b0);
+            let (k0, k1) = self.knots((&x0, &f0, &self.start), (&x1, &s1, sc1), t1 - t0, b0);
             self.cmp.update(t0, t1, &k0, &k1, watch.channels);
             self.cur.update(
                 t0,
                 t1,
-                (self.start.i_shunt, self.shunt_slope(&f0)),
-                (s1.i_shunt, self.shunt_slope(&f1)),
+                (self.start.i_shunt, self.shunt_slope([f0[0], f0[1], f0[2]])),
+                (s1.i_shunt, self.shunt_slope(s1.di.to_array())),
             );
-            let sample = self
-                .pending_sample(watch, now)
+            let after = self.unreported(watch);
+            let sample = after
+                .map(|tv| Self::sample_edge(tv, watch, now))
                 .filter(|e| e.seconds() < t1 - 1e-15);
             if sample.is_some() || t_end < t1 - 1e-15 {
                 // A watched output changed inside the step, or the step runs past `until`:
@@ -1282,7 +1301,6 @@ impl BldcPlant {
                     t1,
                     x1,
                     s1,
-                    f1,
                     sc1,
                     event,
                 });
@@ -1294,9 +1312,10 @@ impl BldcPlant {
                 self.serve_at(until);
                 return PlantStop::Reached;
             }
-            if let Some(stop) = self.finish_step(x1, (f1, sc1), t0, t1, s1, event) {
+            if let Some(stop) = self.finish_step(x1, sc1, t0, t1, s1, event) {
                 return stop;
             }
+            known = Some(after);
         }
     }
 }

@@ -103,6 +103,9 @@ pub struct ChipStatus {
 pub struct Chip {
     name: StrategyName,
     control: ControlParams,
+    /// `control.step_miss_s` in step-miss clocks (a parameter; the deadline is asked for at
+    /// every tick).
+    step_miss_clocks: u64,
     table: Table,
     /// The table after start-up (the configured angle); `table` until then.
     run_table: Table,
@@ -238,6 +241,7 @@ impl Chip {
             next_pi: Ticks::NEVER,
             crossings: 0,
             pattern: ALL_FLOAT,
+            step_miss_clocks: counts(control.step_miss_s, clocks::STEP_MISS),
             control,
         })
     }
@@ -424,7 +428,7 @@ impl Chip {
     }
 
     fn step_miss_deadline(&self) -> Ticks {
-        let n = counts(self.control.step_miss_s, clocks::STEP_MISS);
+        let n = self.step_miss_clocks;
         Ticks(self.fg_since.next_edge(clocks::STEP_MISS).0 + n * clocks::STEP_MISS.0)
     }
 
@@ -790,7 +794,8 @@ impl Controller for Chip {
             self.shifter.set_table(t);
         }
         let watch = if self.mode == Mode::Running && self.shifter.in_pre() {
-            Abc::from_fn(|x| x == self.shifter.zd_phase())
+            let zd = self.shifter.zd_phase();
+            Abc::from_fn(|x| x == zd)
         } else {
             Abc::splat(false)
         };

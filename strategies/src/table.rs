@@ -10,7 +10,7 @@
 //! - Six-step 120°: the crossing falls mid-state, so post = six-step state k+1 (its second
 //!   half, 30°) and pre = state k+2 (its first half, 30°).
 
-use drive_core::bridge::{ALL_FLOAT, Gates, LegState, SIX_STEP_120, floating_phase};
+use drive_core::bridge::{ALL_FLOAT, Gates, LegState, SIX_STEP_120};
 use drive_core::{Abc, Pattern, Phase};
 
 /// One row of the chip's twelve-step table.
@@ -107,30 +107,66 @@ pub struct Sector {
     pub rising: bool,
 }
 
-impl Table {
-    /// Sector `k` (0..5, starting at θe = 60°·k).
-    pub fn sector(&self, k: usize) -> Sector {
-        let k = k % 6;
-        let (post, pre, states) = match self {
-            Table::SixStep => (
-                SIX_STEP_120[k],
-                SIX_STEP_120[(k + 1) % 6],
-                (k as u8 + 1, ((k + 1) % 6) as u8 + 1),
-            ),
-            Table::TwelveStep { .. } => (
+/// Each table's six sectors, built at compile time: the shifter asks for its sector several
+/// times a controller tick, and decoding the floating phase each time cost ≈ 200
+/// instructions a tick.
+const SIX_STEP_SECTORS: [Sector; 6] = sectors(false);
+const TWELVE_STEP_SECTORS: [Sector; 6] = sectors(true);
+
+/// The sectors of six-step (`twelve` false) or twelve-step: post = six-step state k+1 and
+/// pre = state k+2, or post = twelve-step state 2k+1 and pre = 2k+2.
+const fn sectors(twelve: bool) -> [Sector; 6] {
+    let mut out = [sector_of(ALL_FLOAT, ALL_FLOAT, (0, 0)); 6];
+    let mut k = 0;
+    while k < 6 {
+        out[k] = if twelve {
+            sector_of(
                 TWELVE_STEP[2 * k].pattern,
                 TWELVE_STEP[2 * k + 1].pattern,
                 (2 * k as u8 + 1, 2 * k as u8 + 2),
-            ),
+            )
+        } else {
+            sector_of(
+                SIX_STEP_120[k],
+                SIX_STEP_120[(k + 1) % 6],
+                (k as u8 + 1, ((k + 1) % 6) as u8 + 1),
+            )
         };
-        // The table guarantees one floating phase in every pre pattern (tested below).
-        let sensed = floating_phase(&pre).unwrap_or(Phase::U);
-        Sector {
-            post,
-            pre,
-            states,
-            sensed,
-            rising: post.get(sensed) == LegState::Low,
+        k += 1;
+    }
+    out
+}
+
+/// One sector from its patterns and state numbers. The table guarantees one floating phase
+/// in every pre pattern (tested below); u stands in where there is none.
+const fn sector_of(post: Pattern, pre: Pattern, states: (u8, u8)) -> Sector {
+    const fn floats(l: LegState) -> bool {
+        matches!(l, LegState::Float)
+    }
+    let (sensed, post_leg) = if floats(pre.u) && !floats(pre.v) && !floats(pre.w) {
+        (Phase::U, post.u)
+    } else if floats(pre.v) && !floats(pre.u) && !floats(pre.w) {
+        (Phase::V, post.v)
+    } else if floats(pre.w) && !floats(pre.u) && !floats(pre.v) {
+        (Phase::W, post.w)
+    } else {
+        (Phase::U, post.u)
+    };
+    Sector {
+        post,
+        pre,
+        states,
+        sensed,
+        rising: matches!(post_leg, LegState::Low),
+    }
+}
+
+impl Table {
+    /// Sector `k` (0..5, starting at θe = 60°·k; taken modulo 6).
+    pub fn sector(&self, k: usize) -> Sector {
+        match self {
+            Table::SixStep => SIX_STEP_SECTORS[k % 6],
+            Table::TwelveStep { .. } => TWELVE_STEP_SECTORS[k % 6],
         }
     }
 
@@ -306,8 +342,29 @@ mod tests {
                 let off = [0.0, -120f64.to_radians(), 120f64.to_radians()][s.sensed.index()];
                 assert!((th + off).sin().abs() < 1e-9, "{table:?} sector {k}");
                 assert_eq!((th + off).cos() > 0.0, s.rising, "{table:?} sector {k}");
-                assert_eq!(floating_phase(&s.pre), Some(s.sensed));
+                assert_eq!(drive_core::bridge::floating_phase(&s.pre), Some(s.sensed));
+                assert_eq!(s.rising, s.post.get(s.sensed) == LegState::Low);
             }
+        }
+    }
+
+    #[test]
+    fn sectors_are_the_tables_rows() {
+        for k in 0..12 {
+            let (s6, s12) = (
+                Table::SixStep.sector(k),
+                Table::TwelveStep {
+                    conduction_deg: 150.0,
+                }
+                .sector(k),
+            );
+            let j = k % 6;
+            assert_eq!(s6.post, SIX_STEP_120[j]);
+            assert_eq!(s6.pre, SIX_STEP_120[(j + 1) % 6]);
+            assert_eq!(s6.states, (j as u8 + 1, ((j + 1) % 6) as u8 + 1));
+            assert_eq!(s12.post, TWELVE_STEP[2 * j].pattern);
+            assert_eq!(s12.pre, TWELVE_STEP[2 * j + 1].pattern);
+            assert_eq!(s12.states, (2 * j as u8 + 1, 2 * j as u8 + 2));
         }
     }
 

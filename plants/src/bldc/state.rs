@@ -62,7 +62,6 @@ impl Default for Lookahead {
             t1: 0.0,
             x1: State::zeros(),
             s1: Solution::default(),
-            f1: State::zeros(),
             sc1: (0.0, 1.0),
             event: None,
         }
@@ -78,7 +77,8 @@ impl Persist for Lookahead {
         self.t1.save(w);
         save_x(&self.x1, w);
         self.s1.save(w);
-        save_x(&self.f1, w);
+        // Fixed size: zeros where the end's derivative was kept (it follows from `s1`).
+        save_x(&State::zeros(), w);
         self.sc1.save(w);
         self.event.save(w);
     }
@@ -90,7 +90,8 @@ impl Persist for Lookahead {
         r.field("t1", &mut self.t1)?;
         restore_x(r, "x1", &mut self.x1)?;
         r.field("s1", &mut self.s1)?;
-        restore_x(r, "f1", &mut self.f1)?;
+        let mut f1 = State::zeros();
+        restore_x(r, "f1", &mut f1)?;
         r.field("sc1", &mut self.sc1)?;
         unit_circle("sc1", self.sc1)?;
         r.field("event", &mut self.event)
@@ -112,11 +113,12 @@ impl Persist for BldcPlant {
         self.lookahead.save(w);
         self.base_hint.save(w);
         // Fixed size: zeros in place of an absent derivative.
-        let zero = (State::zeros(), State::zeros());
-        w.u8(u8::from(self.fsal.is_some()));
-        let (x, f) = self.fsal.as_ref().unwrap_or(&zero);
-        save_x(x, w);
-        save_x(f, w);
+        // Fixed size: the committed state (the derivative's, see `BldcPlant::fsal`) and
+        // zeros where the derivative was kept (it follows from `start` and `end_angle`).
+        let zero = State::zeros();
+        w.u8(u8::from(self.fsal));
+        save_x(if self.fsal { &self.x } else { &zero }, w);
+        save_x(&zero, w);
         self.end_angle.save(w);
         self.reported.save(w);
         self.stats.save(w);
@@ -145,7 +147,8 @@ impl Persist for BldcPlant {
         let (mut x, mut f) = (State::zeros(), State::zeros());
         restore_x(r, "fsal.0", &mut x)?;
         restore_x(r, "fsal.1", &mut f)?;
-        self.fsal = some.then_some((x, f));
+        // A derivative saved for another state than the committed one is not used.
+        self.fsal = some && x == self.x;
         r.field("end_angle", &mut self.end_angle)?;
         if let Some((_, s, c)) = self.end_angle {
             unit_circle("end_angle", (s, c))?;
