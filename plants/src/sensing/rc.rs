@@ -177,8 +177,7 @@ mod tests {
         for rate in [-1.0 / 6.366e-6, -2.5e3, -3e7, 0.0] {
             let e = ExpTable::new([rate, 0.5 * rate]);
             for t in [
-                0.0, 1e-9, 20e-9, 30e-9, 1.28e-6, 1.3e-6, 17.123e-6, 40e-6, 81.9e-6, 90e-6,
-                -1e-9,
+                0.0, 1e-9, 20e-9, 30e-9, 1.28e-6, 1.3e-6, 17.123e-6, 40e-6, 81.9e-6, 90e-6, -1e-9,
             ] {
                 let got = e.at(t);
                 for (g, r) in got.into_iter().zip([rate, 0.5 * rate]) {
