@@ -24,7 +24,7 @@ mod state;
 
 use super::foh::Foh;
 use super::noise;
-use super::rc::{CubicRc, hermite, horner};
+use super::rc::{CubicRc, ExpTable, hermite, horner};
 use super::tick_powers::{RealPairPowers, TickPowers};
 use crate::params::ComparatorParams;
 use drive_core::{Abc, Phase, TICK_S, Ticks};
@@ -299,6 +299,9 @@ struct Front {
     pow_ring: TickPowers,
     /// Powers of the per-tick decay of the ringing's envelope.
     pow_env: TickPowers,
+    /// e^{−t/τp}, e^{−t/τn} and e^{−t/τr} at any t ≥ 0 (off the tick grid) without libm.
+    exp_pn: ExpTable<2>,
+    exp_env: ExpTable<1>,
     y: Abc<f64>,
     y_n: f64,
     out: Abc<bool>,
@@ -344,6 +347,8 @@ impl ComparatorBank {
                 std::f64::consts::TAU * p.ring_frequency_hz,
             ),
             pow_env: TickPowers::new(-1.0 / p.ring_decay_s, 0.0),
+            exp_pn: ExpTable::new([-1.0 / p.phase_filter_tau_s, -1.0 / p.neutral_filter_tau_s]),
+            exp_env: ExpTable::new([-1.0 / p.ring_decay_s]),
             y: *v_term,
             y_n: v_n,
             out,
@@ -581,8 +586,8 @@ impl ComparatorBank {
         let rec = self.records.newest();
         let f = &mut self.front;
         let tau = t.seconds() - rec.t0;
-        let decays = ((-tau / f.tau_p).exp(), (-tau / f.tau_n).exp());
-        (f.y, f.y_n) = rec.filters_at(tau, decays);
+        let [dp, dn] = f.exp_pn.at(tau);
+        (f.y, f.y_n) = rec.filters_at(tau, (dp, dn));
         for x in Phase::ALL {
             let h = &mut f.hist[x.index()];
             f.toggles -= h.truncate_after(t.0);
@@ -734,7 +739,7 @@ impl Front {
         match Ticks::at_or_after(t) {
             (k, true) if k.0 >= self.ring.k => self.ring_envelope_at(k.0),
             _ if self.ring.mag == 0.0 => 0.0,
-            _ => self.ring.mag * (-(t - self.ring.t) / self.ring_decay).exp(),
+            _ => self.ring.mag * self.exp_env.at(t - self.ring.t)[0],
         }
     }
 
@@ -957,14 +962,18 @@ impl Front {
         if self.decay_cache.0 != h {
             self.decay_cache = match Ticks::at_or_after(h) {
                 (n, true) => (h, self.pow_p.real(n.0), self.pow_n.real(n.0)),
-                _ => (h, (-h / self.tau_p).exp(), (-h / self.tau_n).exp()),
+                _ => {
+                    let [dp, dn] = self.exp_pn.at(h);
+                    (h, dp, dn)
+                }
             };
         }
         let ta = tick_instant(k_start) - t0;
         let first = if (ta - TICK_S).abs() < 1e-6 * TICK_S {
             (self.q_p, self.q_n)
         } else {
-            ((-ta / self.tau_p).exp(), (-ta / self.tau_n).exp())
+            let [dp, dn] = self.exp_pn.at(ta);
+            (dp, dn)
         };
         let (v0, v1) = (k0.v.to_array(), k1.v.to_array());
         let (r0, r1) = (k0.emf_rate.to_array(), k1.emf_rate.to_array());
