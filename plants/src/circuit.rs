@@ -70,6 +70,25 @@ pub fn state_index(modes: &Abc<Conduction>) -> usize {
     m.u * 25 + m.v * 5 + m.w
 }
 
+/// [`Circuit::follows_neutral`] of each conduction state, by [`state_index`]: made at
+/// compile time, since the plant asks at every step.
+const FOLLOWS_NEUTRAL: [[bool; 3]; STATES] = {
+    let mut t = [[false; 3]; STATES];
+    let mut k = 0;
+    while k < STATES {
+        // Base-5 digits in `Conduction`'s order: 2, 3 the diodes, 4 open.
+        let d = [k / 25 % 5, k / 5 % 5, k % 5];
+        let n_c = (d[0] != 4) as usize + (d[1] != 4) as usize + (d[2] != 4) as usize;
+        let mut p = 0;
+        while p < 3 {
+            t[k][p] = d[p] == 4 || (n_c < 2 && (d[p] == 2 || d[p] == 3));
+            p += 1;
+        }
+        k += 1;
+    }
+    t
+};
+
 /// The legs' conduction states at index `k` (see [`state_index`]).
 pub fn state_at(k: usize) -> Abc<Conduction> {
     const ALL: [Conduction; 5] = [
@@ -338,9 +357,7 @@ impl Circuit {
     /// The legs whose terminal [`Circuit::solve`] puts at v_n + e_x: the open ones, and with
     /// fewer than two legs conducting the diode ones too (nothing carries their current).
     pub fn follows_neutral(modes: &Abc<Conduction>) -> [bool; 3] {
-        let m = modes.to_array();
-        let n_c = m.iter().filter(|m| m.conducts()).count();
-        m.map(|c| !c.conducts() || (n_c < 2 && c.is_diode()))
+        FOLLOWS_NEUTRAL[state_index(modes)]
     }
 
     /// Neutral voltage with no conducting path: −Σe/3, clamped so that every terminal stays

@@ -72,6 +72,8 @@ pub enum ShiftEvent {
 #[derive(Clone, Debug)]
 pub struct PhaseShifter {
     table: Table,
+    /// `table.post_fraction()`, kept since the clock asks at every edge (it rounds a float).
+    post: (u64, u64),
     blank: Ticks,
     sector: usize,
     in_pre: bool,
@@ -101,6 +103,7 @@ impl PhaseShifter {
     pub fn new(table: Table, blank: Ticks) -> Self {
         PhaseShifter {
             table,
+            post: table.post_fraction(),
             blank,
             sector: 0,
             in_pre: true,
@@ -168,6 +171,7 @@ impl PhaseShifter {
     /// crossing.
     pub fn set_table(&mut self, table: Table) {
         self.table = table;
+        self.post = table.post_fraction();
     }
 
     /// Starts closed-loop operation at `now` in the pre part of `sector`; t_60 is assumed
@@ -253,7 +257,7 @@ impl PhaseShifter {
         }
         self.last_cross = at;
         self.sector = (self.sector + 1) % 6;
-        let (num, den) = self.table.post_fraction();
+        let (num, den) = self.post;
         let post = self.t60 * num / den;
         // A crossing dated back may leave less than its post part, or none.
         self.post_end = Ticks(at.0 + post * CLK).max(now);
@@ -327,7 +331,7 @@ impl PhaseShifter {
     /// one (fewer than two crossings measured) or at least ¾ of it (an earlier crossing is
     /// not plausible), and at least one clock; or confirmation is on.
     fn post_may_be_empty(&self) -> bool {
-        let (num, den) = self.table.post_fraction();
+        let (num, den) = self.post;
         // A confirmed crossing is dated back and may have used up its post part.
         self.confirm.is_some() || (self.t60 * 3 / 4).max(1) * num / den == 0
     }
@@ -379,7 +383,8 @@ impl PhaseShifter {
     }
 }
 
-// Everything but the blanking time, a parameter.
+// Everything but the blanking time, a parameter, and the post fraction, derived from the
+// table.
 drive_core::persist_fields!(PhaseShifter {
     table,
     sector,
@@ -398,7 +403,13 @@ drive_core::persist_fields!(PhaseShifter {
     integ_at,
     integ_level,
     integ_from
-});
+} then rederive);
+
+/// Restores what derives from the restored fields: the post fraction of the table.
+fn rederive(s: &mut PhaseShifter) -> Result<(), String> {
+    s.post = s.table.post_fraction();
+    Ok(())
+}
 
 #[cfg(test)]
 mod tests {
