@@ -208,12 +208,11 @@ impl PluginLibrary {
                 v.assume_init()
             }
         };
-        let h = (name_p, description_p);
-        let name = text(h.0, "name", path)?;
+        let name = text(name_p, "name", path)?;
         if name.is_empty() {
             return Err(bad("empty name".into()));
         }
-        let description = text(h.1, "description", path)?;
+        let description = text(description_p, "description", path)?;
         Ok(PluginLibrary {
             inner: Arc::new(Loaded {
                 path: p(),

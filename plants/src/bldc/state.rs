@@ -112,7 +112,6 @@ impl Persist for BldcPlant {
         self.muted.save(w);
         self.lookahead.save(w);
         self.base_hint.save(w);
-        // Fixed size: zeros in place of an absent derivative.
         // Fixed size: the committed state (the derivative's, see `BldcPlant::fsal`) and
         // zeros where the derivative was kept (it follows from `start` and `end_angle`).
         let zero = State::zeros();
