@@ -573,7 +573,7 @@ impl BldcPlant {
         let half = rsp.decays(0.5 * h);
         let full = [half[0] * half[0], half[1] * half[1]];
         // The angles at mid-step and at the end: two rotations by Ω·h/2.
-        let (rs, rc) = emf::sin_cos_near(0.5 * h * omega_e, (0.0, 0.0, 1.0));
+        let (rs, rc) = emf::rotation(0.5 * h * omega_e);
         let rotate = |(s, c): (f64, f64)| (s * rc + c * rs, c * rc - s * rs);
         let sc_m = rotate(sc0);
         let sc_e = rotate(sc_m);
