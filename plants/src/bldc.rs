@@ -1433,7 +1433,7 @@ mod tests {
                     let pl = driven(i, rpm, lock);
                     let n_on = pl.modes.to_array().iter().filter(|m| m.conducts()).count();
                     assert_eq!(n_on, if i[2] == 0.0 { 2 } else { 3 }, "{case}");
-                    let (lin, md, _) = pl.form().clone();
+                    let (lin, md, _) = *pl.form();
                     let md = md.expect("a modal form");
                     let x0 = pl.x;
                     let b = BldcPlant::base(&x0);
