@@ -531,8 +531,9 @@ impl BldcPlant {
     /// step is reached from it by angle addition). The modal form's exact currents where
     /// there is one (sinusoidal back-EMF), else RK4.
     fn integrate_from(&self, x: &State, h: f64, base: (f64, f64, f64), k1: &State) -> State {
-        match &self.form().1 {
-            Some(md) if self.modal => self.flow_from(md, x, h, base, k1),
+        let (lin, md, _) = self.form();
+        match md {
+            Some(md) if self.modal => self.flow_from(md, lin, x, h, base, k1),
             _ => self.rk4_from(x, h, base, k1),
         }
     }
@@ -540,8 +541,17 @@ impl BldcPlant {
     /// A step by the modal form `md` (see [`crate::modal`]): the currents exactly for the
     /// speed changing at the acceleration in `k1` (to first order in it); speed, angle and
     /// energy integrals by RK4's weights on those currents (for the energies, whose rates
-    /// do not depend on them, that is Simpson's rule).
-    fn flow_from(&self, md: &Modal, x: &State, h: f64, base: (f64, f64, f64), k1: &State) -> State {
+    /// do not depend on them, that is Simpson's rule). `lin` is the same state's affine
+    /// form (its loss weights), passed with `md` rather than looked up again.
+    fn flow_from(
+        &self,
+        md: &Modal,
+        lin: &Linearised,
+        x: &State,
+        h: f64,
+        base: (f64, f64, f64),
+        k1: &State,
+    ) -> State {
         let (w0, th0) = (x[OMEGA], x[THETA]);
         let kl = self.lambda * self.pp;
         let w2 = w0 + 0.5 * h * k1[OMEGA];
@@ -563,7 +573,7 @@ impl BldcPlant {
         let half = rsp.decays(0.5 * h);
         let full = [half[0] * half[0], half[1] * half[1]];
         // The angles at mid-step and at the end: two rotations by Ω·h/2.
-        let (rs, rc) = emf::sin_cos_near(0.5 * h * omega_e, (0.0, 0.0, 1.0));
+        let (rs, rc) = emf::rotation(0.5 * h * omega_e);
         let rotate = |(s, c): (f64, f64)| (s * rc + c * rs, c * rc - s * rs);
         let sc_m = rotate(sc0);
         let sc_e = rotate(sc_m);
@@ -577,7 +587,6 @@ impl BldcPlant {
             torque(&i_e, emf::sinusoid(sc_e)),
         );
         // The electrical powers do not depend on the speed; the airgap power is Te·ωm.
-        let lin = &self.form().0;
         let (p_m, p_e) = (lin.powers(&i_m, &[0.0; 3]), lin.powers(&i_e, &[0.0; 3]));
         let (r2, a2) = self.stage_rates(&p_m, te_m, w2, te_m * w2);
         let w3 = w0 + 0.5 * h * a2;
@@ -1424,11 +1433,12 @@ mod tests {
                     let pl = driven(i, rpm, lock);
                     let n_on = pl.modes.to_array().iter().filter(|m| m.conducts()).count();
                     assert_eq!(n_on, if i[2] == 0.0 { 2 } else { 3 }, "{case}");
-                    let md = pl.form().1.expect("a modal form");
+                    let (lin, md, _) = *pl.form();
+                    let md = md.expect("a modal form");
                     let x0 = pl.x;
                     let b = BldcPlant::base(&x0);
                     let k1 = pl.deriv(&dynamic(&x0), b);
-                    let got = pl.flow_from(&md, &x0, h, b, &k1);
+                    let got = pl.flow_from(&md, &lin, &x0, h, b, &k1);
                     let want = fine(&pl, &x0, h, 2000);
                     let (di, dw) = (err(&got, &want), (got[OMEGA] - want[OMEGA]).abs());
                     let (bi, bw) = if lock { (1e-13, 0.0) } else { (1e-7, 2e-7) };
@@ -1436,7 +1446,7 @@ mod tests {
                     if !lock {
                         // Fourth order: half the step, a sixteenth of the error (third
                         // order, as without the torque's rate of change, an eighth).
-                        let half = pl.flow_from(&md, &x0, h / 2.0, b, &k1);
+                        let half = pl.flow_from(&md, &lin, &x0, h / 2.0, b, &k1);
                         let e2 = err(&half, &fine(&pl, &x0, h / 2.0, 2000));
                         assert!(e2 < di / 12.0, "{case}: {di:e} A, then {e2:e} A at h/2");
                     }

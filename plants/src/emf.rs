@@ -23,6 +23,25 @@ pub fn sin_cos_near(theta: f64, base: (f64, f64, f64)) -> (f64, f64) {
     if d.abs() > 0.5 {
         return theta.sin_cos();
     }
+    let (sd, cd) = taylor(d);
+    (sb * cd + cb * sd, cb * cd - sb * sd)
+}
+
+/// sin and cos of a small angle `d` \[rad\]: [`sin_cos_near`] from the base angle 0 (the
+/// same values bit for bit), without its angle addition's products with sin 0 and cos 0.
+pub fn rotation(d: f64) -> (f64, f64) {
+    if d == 0.0 {
+        return (0.0, 1.0);
+    }
+    if d.abs() > 0.5 {
+        return d.sin_cos();
+    }
+    taylor(d)
+}
+
+/// sin d and cos d by their Taylor series to d¹¹ and d¹², within 1e-12 for |d| ≤ 0.5.
+#[inline(always)]
+fn taylor(d: f64) -> (f64, f64) {
     // Taylor coefficients as constants: Horner by multiplication alone (no division in
     // the hot path).
     const S: [f64; 5] = [
@@ -43,7 +62,7 @@ pub fn sin_cos_near(theta: f64, base: (f64, f64, f64)) -> (f64, f64) {
     let d2 = d * d;
     let sd = d * (1.0 + d2 * (S[0] + d2 * (S[1] + d2 * (S[2] + d2 * (S[3] + d2 * S[4])))));
     let cd = 1.0 + d2 * (C[0] + d2 * (C[1] + d2 * (C[2] + d2 * (C[3] + d2 * (C[4] + d2 * C[5])))));
-    (sb * cd + cb * sd, cb * cd - sb * sd)
+    (sd, cd)
 }
 
 /// The sinusoidal shape from sin θ and cos θ: sin θ, sin(θ − 120°), sin(θ + 120°).
@@ -183,6 +202,10 @@ mod tests {
             );
         }
         assert_eq!(sin_cos_near(3.0, base), 3.0f64.sin_cos());
+        for d in [0.0, -0.0, 1e-300, 1e-3, -0.2, 0.5, 0.7, -3.0] {
+            let want = sin_cos_near(d, (0.0, 0.0, 1.0));
+            assert_eq!(rotation(d), want, "{d}");
+        }
     }
 
     #[test]
