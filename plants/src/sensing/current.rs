@@ -228,7 +228,7 @@ impl CurrentSense {
             let code = self.quantise(
                 self.last
                     .0
-                    .at(self.next_sample as f64 * TICK_S - t0, &self.decay),
+                    .at(Ticks(self.next_sample).seconds() - t0, &self.decay),
             );
             if self.results.len() == self.results.capacity() {
                 self.results.pop_front();
