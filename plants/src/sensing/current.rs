@@ -129,22 +129,35 @@ impl CurrentSense {
         } else if b != 0.0 {
             ext[0] = -m0 / b;
         }
-        ext.sort_by(f64::total_cmp);
         for e in ext {
             if e > 0.0 && e < 1.0 {
                 cuts[n_cuts] = e;
                 n_cuts += 1;
             }
         }
+        // Ascending (two roots come in either order, by the sign of a).
+        if n_cuts == 3 && cuts[2] < cuts[1] {
+            cuts.swap(1, 2);
+        }
         cuts[n_cuts] = 1.0;
-        // Where each monotone part crosses a clip level.
+        // Where each monotone part crosses a clip level: the values at the parts' ends,
+        // once each; usually all inside the swing (or all below it), and no part crosses.
         let (lo, hi) = (0.0, self.max_v);
+        let ends: [f64; 4] = std::array::from_fn(|i| v(cuts[i]));
+        let ends = &ends[..=n_cuts];
         let mut bounds = [0.0; 8];
         let mut n_b = 1;
-        for w in cuts[..=n_cuts].windows(2) {
+        let inside = |l: f64, u: f64| ends.iter().all(|&e| e - l > 0.0 && e - u < 0.0);
+        let parts = if inside(lo, hi) || inside(f64::NEG_INFINITY, lo) {
+            0
+        } else {
+            n_cuts
+        };
+        for i in 0..parts {
+            let w = [cuts[i], cuts[i + 1]];
             for level in [lo, hi] {
                 let (mut a, mut b) = (w[0], w[1]);
-                let (fa, fb) = (v(a) - level, v(b) - level);
+                let (fa, fb) = (ends[i] - level, ends[i + 1] - level);
                 if fa * fb >= 0.0 {
                     continue;
                 }
@@ -215,7 +228,7 @@ impl CurrentSense {
             let code = self.quantise(
                 self.last
                     .0
-                    .at(self.next_sample as f64 * TICK_S - t0, &self.decay),
+                    .at(Ticks(self.next_sample).seconds() - t0, &self.decay),
             );
             if self.results.len() == self.results.capacity() {
                 self.results.pop_front();

@@ -382,7 +382,7 @@ impl ComparatorBank {
         let f = &mut self.front;
         // Referred to the tick at or after t (the engine's instants are ticks already).
         let k = Ticks::at_or_after(t).0.0;
-        let lead = k as f64 * TICK_S - t;
+        let lead = Ticks(k).seconds() - t;
         let (re, im) = f.ring_at(k);
         let (dr, di) = if lead > 0.0 {
             let d = (-lead / f.ring_decay).exp();
@@ -395,7 +395,7 @@ impl ComparatorBank {
         f.ring.z = (re + g * dr, im + g * di);
         f.ring.mag = f.ring.z.0.hypot(f.ring.z.1);
         f.ring.k = k;
-        f.ring.t = k as f64 * TICK_S;
+        f.ring.t = Ticks(k).seconds();
     }
 
     /// Advances the filters over [t0, t1] with terminal and neutral voltages interpolated
@@ -793,6 +793,8 @@ impl Front {
         let mut m = k / n;
         let rest = m_end - m + 1;
         let mut span = if k == c.k_s { rest.min(4) } else { rest };
+        // The output changes only in a walk: read once, not at every bound.
+        let mut out = self.out.get(x);
         while k <= stop {
             debug_assert_eq!(m, k / n);
             if span > 1 {
@@ -801,7 +803,7 @@ impl Front {
                 // would bound the same block again.
                 let span_in = span.min(m_end - m + 1);
                 let e = ((m + span_in) * n - 1).min(k_end);
-                if self.may_toggle_over(c, k, e, -a, a) {
+                if self.may_toggle_over(c, out, k, e, -a, a) {
                     // A small block that may toggle is usually busy at its start (a filter
                     // transient or ringing dying away): its first segment is tried with its
                     // own noise at once, rather than halves of the block first.
@@ -816,8 +818,8 @@ impl Front {
             let seg_end = ((m + 1) * n - 1).min(stop);
             let noise = noise::uniform_keyed(key, m, a);
             self.work.segments += 1;
-            if self.may_toggle_over(c, k, seg_end, noise, noise) {
-                self.walk(c, k, seg_end, noise);
+            if self.may_toggle_over(c, out, k, seg_end, noise, noise) {
+                out = self.walk(c, k, seg_end, noise);
                 span = 1; // the next segment is likely busy too
             } else {
                 // Quiet here: the rest of the step likely is too. Restarting at 8 segments
@@ -831,8 +833,8 @@ impl Front {
     }
 
     /// Decides ticks `k..=last` of `c`'s step one by one, with per-tick factors instead of
-    /// an exp and a sincos at every tick, recording each toggle.
-    fn walk(&mut self, c: &Channel, k: u64, last: u64, noise: f64) {
+    /// an exp and a sincos at every tick, recording each toggle; returns the output after.
+    fn walk(&mut self, c: &Channel, k: u64, last: u64, noise: f64) -> bool {
         let x = c.x;
         self.work.ticks_scanned += last - k + 1;
         let (dp, dn) = self.decay(c, k);
@@ -849,6 +851,7 @@ impl Front {
             self.walk_ticks::<true>(x, from, last, &poly)
         };
         *self.out.get_mut(x) = out;
+        out
     }
 
     /// [`Front::walk`]'s loop over channel `x`'s ticks `k..=last` from τ, the transients
@@ -889,14 +892,22 @@ impl Front {
         out
     }
 
-    /// Whether `c`'s output may toggle at a tick in `a..=b` of its step, with noise in
-    /// [n_lo, n_hi]: the filter decays at both ends, the ringing's envelope at `a`.
+    /// Whether `c`'s output, now `out`, may toggle at a tick in `a..=b` of its step, with
+    /// noise in [n_lo, n_hi]: the filter decays at both ends, the ringing's envelope at `a`.
     /// Inlined, as the bounds it calls: a scan's loop runs it 8 times on average, and out
     /// of line its arguments and results go through memory.
     #[inline(always)]
-    fn may_toggle_over(&self, c: &Channel, a: u64, b: u64, n_lo: f64, n_hi: f64) -> bool {
+    fn may_toggle_over(
+        &self,
+        c: &Channel,
+        out: bool,
+        a: u64,
+        b: u64,
+        n_lo: f64,
+        n_hi: f64,
+    ) -> bool {
         let (ta, tb, w, env) = self.over(c, a, b);
-        self.may_toggle(c, ta, tb, w, env, n_lo, n_hi)
+        self.may_toggle(c, out, ta, tb, w, env, n_lo, n_hi)
     }
 
     /// Ticks `a..=b` of `c`'s step as the bounds take them: τ at both ends, the filter
@@ -1029,7 +1040,7 @@ impl Front {
         });
         let w = [1.0, 1.0, rec.eh.0, rec.eh.1];
         let (a, env) = (self.noise_a, rec.env0);
-        let open = self.may_toggle(&cur.c, 0.0, rec.h, w, env, -a, a);
+        let open = self.may_toggle(&cur.c, self.out.get(x), 0.0, rec.h, w, env, -a, a);
         if !open {
             *slot = None;
         }
@@ -1044,7 +1055,8 @@ impl Front {
         r
     }
 
-    /// Whether the output may toggle somewhere in τ ∈ [ta, tb], given noise in [n_lo, n_hi].
+    /// Whether the output, now `out`, may toggle somewhere in τ ∈ [ta, tb], given noise in
+    /// [n_lo, n_hi].
     /// `w` holds the decay factors (e^{−ta/τp}, e^{−ta/τn}, e^{−tb/τp}, e^{−tb/τn}); `env`
     /// bounds the ringing from ta on.
     #[allow(clippy::too_many_arguments)]
@@ -1052,6 +1064,7 @@ impl Front {
     fn may_toggle(
         &self,
         c: &Channel,
+        out: bool,
         ta: f64,
         tb: f64,
         w: [f64; 4],
@@ -1061,20 +1074,20 @@ impl Front {
     ) -> bool {
         // The ends first: the stationary point can only widen the range.
         let (lo, hi) = Self::range_ends(c, ta, tb, w, env);
-        if self.can_toggle(c.x, lo, hi, n_lo, n_hi) {
+        if self.can_toggle(out, lo, hi, n_lo, n_hi) {
             return true;
         }
         match self.stationary_within(c, w) {
-            Some(g) => self.can_toggle(c.x, lo.min(lo + g), hi.max(hi + g), n_lo, n_hi),
+            Some(g) => self.can_toggle(out, lo.min(lo + g), hi.max(hi + g), n_lo, n_hi),
             None => false,
         }
     }
 
     /// Whether a noise-free signal range [lo, hi] plus noise in [n_lo, n_hi] can cross the
-    /// threshold the output is waiting for.
+    /// threshold the output, now `out`, is waiting for.
     #[inline(always)]
-    fn can_toggle(&self, x: Phase, lo: f64, hi: f64, n_lo: f64, n_hi: f64) -> bool {
-        if self.out.get(x) {
+    fn can_toggle(&self, out: bool, lo: f64, hi: f64, n_lo: f64, n_hi: f64) -> bool {
+        if out {
             lo + n_lo < -self.half_h
         } else {
             hi + n_hi > self.half_h
@@ -1178,7 +1191,9 @@ impl Front {
 
 /// The instant of tick `k` \[s\], `k as f64 * TICK_S`: through i64, one conversion
 /// where u64's takes a dozen instructions on baseline x86-64, with the same value (every
-/// tick index is below 2⁶³).
+/// tick index is below 2⁶³). [`Ticks::seconds`] gives the same value but keeps a branch
+/// for counts beyond i64, which costs 0.7 M instructions a simulated second in the scans
+/// (measured); the scans' hot paths take this one.
 #[inline(always)]
 fn tick_instant(k: u64) -> f64 {
     debug_assert!(k < 1 << 63);
