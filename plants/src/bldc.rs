@@ -570,7 +570,7 @@ impl BldcPlant {
             d2: 0.5 * self.pp * a,
         };
         let rsp = Response::new(md, &i0, sc0, &forcing);
-        let half = rsp.decays(0.5 * h);
+        let half = md.decays(0.5 * h);
         let full = [half[0] * half[0], half[1] * half[1]];
         // The angles at mid-step and at the end: two rotations by Ω·h/2.
         let (rs, rc) = emf::rotation(0.5 * h * omega_e);

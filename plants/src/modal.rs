@@ -20,6 +20,7 @@
 
 use crate::circuit::{Conduction, Linearised};
 use crate::emf;
+use crate::sensing::rc::ExpTable;
 use drive_core::Abc;
 
 /// Eigenvalues, eigenvectors and forcing weights of one conduction state.
@@ -37,6 +38,8 @@ pub struct Modal {
     pub gs: [f64; 2],
     /// The same for cos φ [A/(V·s)].
     pub gc: [f64; 2],
+    /// e^{λ_j·t} by table (a cache of `lambda`; a missing mode's rate is 0).
+    decay: ExpTable<2>,
 }
 
 impl Modal {
@@ -128,6 +131,7 @@ impl Modal {
             m,
             w,
             lambda,
+            decay: ExpTable::new(lambda),
             ..Modal::default()
         };
         for j in 0..m {
@@ -136,6 +140,13 @@ impl Modal {
             out.gc[j] = dot(&w[j], &qc);
         }
         Some(out)
+    }
+}
+
+impl Modal {
+    /// e^{λ_j·t} for the modes, `t` \[s\] ≥ 0, by table (a missing mode's is 1).
+    pub fn decays(&self, t: f64) -> [f64; 2] {
+        self.decay.at(t)
     }
 }
 
