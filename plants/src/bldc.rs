@@ -392,7 +392,7 @@ impl BldcPlant {
 
     /// The back-EMF shape values and the back-EMFs \[V\] at `x`; inlined, so a caller
     /// that takes the back-EMFs alone does not make the shape's values.
-    #[inline]
+    #[inline(always)]
     fn emf_of(&self, x: &State) -> (Abc<f64>, Abc<f64>) {
         let sc = emf::sin_cos_near(x[THETA], self.base_hint);
         let f = emf::shape_with(&self.shape, x[THETA], sc);

@@ -460,7 +460,11 @@ impl Circuit {
         for round in 0..3 {
             let mut worst: Option<(Phase, f64)> = None;
             for p in Phase::ALL {
-                let open = !modes.get(p).conducts();
+                // Only an open leg not kept open may start conducting: the others'
+                // terminals need no judging (most re-resolves have one open leg or none).
+                if modes.get(p).conducts() || keep_open == Some(p) {
+                    continue;
+                }
                 let mut viol = self.clamp_violation(sol.v_term.get(p), sol.i_shunt);
                 if round == 0 && at_clamp == Some(p) && viol.abs() <= 1e-9 {
                     // Located on the clamp: the nearer clamp is the one it reached.
@@ -469,12 +473,7 @@ impl Circuit {
                     let mid = 0.5 * (lo + hi);
                     viol = if v < mid { -2e-9 } else { 2e-9 };
                 }
-                let allowed = keep_open != Some(p);
-                if open
-                    && allowed
-                    && viol.abs() > 1e-9
-                    && worst.is_none_or(|(_, w)| viol.abs() > w.abs())
-                {
+                if viol.abs() > 1e-9 && worst.is_none_or(|(_, w)| viol.abs() > w.abs()) {
                     worst = Some((p, viol));
                 }
             }
