@@ -43,6 +43,12 @@ impl GateDriver {
     pub fn command(&mut self, now: Ticks, gates: Gates) -> Result<(), ShootThrough> {
         gates.validate()?;
         self.commanded = gates;
+        if self.dead_time == Ticks::ZERO {
+            // Every turn-on is released at once: what the loop below and `release` would
+            // do, without them (no turn-on is ever left pending).
+            self.effective = gates;
+            return Ok(());
+        }
         let cmd = flatten(&gates);
         let mut eff = flatten(&self.effective);
 
@@ -76,6 +82,10 @@ impl GateDriver {
 
     /// The next pending turn-on, or [`Ticks::NEVER`].
     pub fn next_release(&self) -> Ticks {
+        if self.dead_time == Ticks::ZERO {
+            // Without dead time nothing is ever pending (see `command`).
+            return Ticks::NEVER;
+        }
         self.pending_on
             .iter()
             .copied()
@@ -88,10 +98,17 @@ impl GateDriver {
 crate::persist_fields!(GateDriver { commanded, effective, pending_on } then GateDriver::check_restored);
 
 impl GateDriver {
-    /// Restored gates never short a leg.
+    /// Restored gates never short a leg; without dead time no turn-on waits (a driver
+    /// without it never holds one: see `command`).
     fn check_restored(&self) -> Result<(), String> {
         for g in [self.commanded, self.effective] {
             g.validate().map_err(|e| format!(" {e}"))?;
+        }
+        if self.dead_time == Ticks::ZERO && self.pending_on != [Ticks::NEVER; 6] {
+            return Err(format!(
+                "pending_on = {:?} (rule: none pending without dead time)",
+                self.pending_on.map(|t| t.0)
+            ));
         }
         Ok(())
     }

@@ -390,6 +390,9 @@ impl BldcPlant {
         }
     }
 
+    /// The back-EMF shape values and the back-EMFs \[V\] at `x`; inlined, so a caller
+    /// that takes the back-EMFs alone does not make the shape's values.
+    #[inline(always)]
     fn emf_of(&self, x: &State) -> (Abc<f64>, Abc<f64>) {
         let sc = emf::sin_cos_near(x[THETA], self.base_hint);
         let f = emf::shape_with(&self.shape, x[THETA], sc);
@@ -944,13 +947,18 @@ impl BldcPlant {
         self.fsal = false;
         let (_, e) = self.emf_of(&self.x);
         let i = Self::currents(&self.x);
-        (self.modes, self.start) =
-            self.circuit
-                .resolve_with(&self.gates, &i, &e, (at_clamp, keep_open), |m| {
-                    let k = circuit::state_index(m);
-                    let plan = &self.forms[k].get_or_init(|| form_at(&self.circuit, k)).2;
-                    self.circuit.solve_planned(plan, m, &i, &e)
-                });
+        self.modes = self.circuit.resolve_with(
+            &self.gates,
+            &i,
+            &e,
+            (at_clamp, keep_open),
+            |m| {
+                let k = circuit::state_index(m);
+                let plan = &self.forms[k].get_or_init(|| form_at(&self.circuit, k)).2;
+                self.circuit.solve_planned(plan, m, &i, &e)
+            },
+            &mut self.start,
+        );
         self.lin = circuit::state_index(&self.modes);
     }
 

@@ -417,13 +417,23 @@ impl Circuit {
         at_clamp: Option<Phase>,
         keep_open: Option<Phase>,
     ) -> (Abc<Conduction>, Solution) {
-        self.resolve_with(gates, i, e, (at_clamp, keep_open), |m| self.solve(m, i, e))
+        let mut sol = Solution::default();
+        let modes = self.resolve_with(
+            gates,
+            i,
+            e,
+            (at_clamp, keep_open),
+            |m| self.solve(m, i, e),
+            &mut sol,
+        );
+        (modes, sol)
     }
 
     /// [`Circuit::resolve`] with the network solved in each conduction state tried by
     /// `solve`, which must give [`Circuit::solve`]'s solution for currents `i` and back-EMFs
     /// `e` (a caller holding [`Plan`]s passes [`Circuit::solve_planned`]); `(at_clamp,
-    /// keep_open)` as there.
+    /// keep_open)` as there. The resolved state's solution is written to `sol` (the
+    /// caller's own, e.g. a plant's start: a returned solution was moved twice more).
     pub fn resolve_with(
         &self,
         gates: &Gates,
@@ -431,7 +441,8 @@ impl Circuit {
         e: &Abc<f64>,
         (at_clamp, keep_open): (Option<Phase>, Option<Phase>),
         solve: impl Fn(&Abc<Conduction>) -> Solution,
-    ) -> (Abc<Conduction>, Solution) {
+        sol: &mut Solution,
+    ) -> Abc<Conduction> {
         let mut modes = Abc::from_fn(|p| {
             if gates.high.get(p) {
                 Conduction::SwitchHigh
@@ -445,11 +456,15 @@ impl Circuit {
                 Conduction::Open
             }
         });
-        let mut sol = solve(&modes);
+        *sol = solve(&modes);
         for round in 0..3 {
             let mut worst: Option<(Phase, f64)> = None;
             for p in Phase::ALL {
-                let open = !modes.get(p).conducts();
+                // Only an open leg not kept open may start conducting: the others'
+                // terminals need no judging (most re-resolves have one open leg or none).
+                if modes.get(p).conducts() || keep_open == Some(p) {
+                    continue;
+                }
                 let mut viol = self.clamp_violation(sol.v_term.get(p), sol.i_shunt);
                 if round == 0 && at_clamp == Some(p) && viol.abs() <= 1e-9 {
                     // Located on the clamp: the nearer clamp is the one it reached.
@@ -458,12 +473,7 @@ impl Circuit {
                     let mid = 0.5 * (lo + hi);
                     viol = if v < mid { -2e-9 } else { 2e-9 };
                 }
-                let allowed = keep_open != Some(p);
-                if open
-                    && allowed
-                    && viol.abs() > 1e-9
-                    && worst.is_none_or(|(_, w)| viol.abs() > w.abs())
-                {
+                if viol.abs() > 1e-9 && worst.is_none_or(|(_, w)| viol.abs() > w.abs()) {
                     worst = Some((p, viol));
                 }
             }
@@ -501,9 +511,9 @@ impl Circuit {
                 break;
             }
             modes = trial;
-            sol = s;
+            *sol = s;
         }
-        (modes, sol)
+        modes
     }
 }
 
