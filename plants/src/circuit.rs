@@ -76,12 +76,17 @@ const FOLLOWS_NEUTRAL: [[bool; 3]; STATES] = {
     let mut t = [[false; 3]; STATES];
     let mut k = 0;
     while k < STATES {
-        // Base-5 digits in `Conduction`'s order: 2, 3 the diodes, 4 open.
+        // The legs' base-5 digits, as `state_index` makes them.
         let d = [k / 25 % 5, k / 5 % 5, k % 5];
-        let n_c = (d[0] != 4) as usize + (d[1] != 4) as usize + (d[2] != 4) as usize;
+        let (open, dh, dl) = (
+            Conduction::Open as usize,
+            Conduction::DiodeHigh as usize,
+            Conduction::DiodeLow as usize,
+        );
+        let n_c = (d[0] != open) as usize + (d[1] != open) as usize + (d[2] != open) as usize;
         let mut p = 0;
         while p < 3 {
-            t[k][p] = d[p] == 4 || (n_c < 2 && (d[p] == 2 || d[p] == 3));
+            t[k][p] = d[p] == open || (n_c < 2 && (d[p] == dh || d[p] == dl));
             p += 1;
         }
         k += 1;

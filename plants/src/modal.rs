@@ -141,10 +141,9 @@ impl Modal {
         }
         Some(out)
     }
-}
 
-impl Modal {
-    /// e^{λ_j·t} for the modes, `t` \[s\] ≥ 0, by table (a missing mode's is 1).
+    /// e^{λ_j·t} for the modes, `t` \[s\] ≥ 0, by table (a missing mode's is 1; the
+    /// caller squares these to double t).
     pub fn decays(&self, t: f64) -> [f64; 2] {
         self.decay.at(t)
     }
@@ -243,17 +242,8 @@ impl<'a> Response<'a> {
         rsp
     }
 
-    /// e^{λ_j·t} for the modes (the caller squares these to double t).
-    pub fn decays(&self, t: f64) -> [f64; 2] {
-        let mut d = [0.0; 2];
-        for (dj, l) in d.iter_mut().zip(&self.md.lambda[..self.md.m]) {
-            *dj = (l * t).exp();
-        }
-        d
-    }
-
     /// The currents at time `t` into the step, where the angle's sine and cosine are
-    /// (`s`, `c`) and the modes have decayed by `decays`.
+    /// (`s`, `c`) and the modes have decayed by `decays` (see [`Modal::decays`]).
     pub fn currents(&self, t: f64, (s, c): (f64, f64), decays: [f64; 2]) -> [f64; 3] {
         let mut i = self.perp;
         for (j, d) in decays.iter().enumerate().take(self.md.m) {
