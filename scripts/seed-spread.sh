@@ -14,21 +14,24 @@
 # trajectory (seed 1 is then a new draw, which falls outside the range of 16 earlier draws
 # with probability 2/17 per figure), the mean over the changed tree's seeds 1..8 is the
 # reference's mean within Welch's |t| ≤ 3.5. Every changed seed's verdict must be one the
-# reference's seeds reached, and seed 1's the same as the reference's seed 1 unless the
-# reference's verdicts vary by seed.
+# reference's seeds reached. Every seed of every point must run and give finite figures
+# (a crash or a non-finite figure fails, in either mode).
 # Figures of the run's setup or of the machine (wall time, real-time factor, the command, the
 # steady window) are not compared. BIN defaults to the release drive-bench
 # (CARGO_TARGET_DIR honoured); `cargo build --release` first.
 set -euo pipefail
-cd "$(dirname "$0")/.."
 mode=${1:?usage: seed-spread.sh record|check SPREAD.json [BIN]}
 file=${2:?usage: seed-spread.sh record|check SPREAD.json [BIN]}
-bin=${3:-${CARGO_TARGET_DIR:-target}/release/drive-bench}
+# Paths as given, from where the script was called; then to the repository's root.
+file=$(realpath -m -- "$file")
+if [ -n "${3:-}" ]; then bin=$(realpath -m -- "$3"); fi
+cd "$(dirname "$0")/.."
+bin=${bin:-${CARGO_TARGET_DIR:-target}/release/drive-bench}
 [ -x "$bin" ] || { echo "error: $bin not found; cargo build --release first" >&2; exit 1; }
 points=("default-3000|--speed-rpm 3000" "default-1500|--speed-rpm 1500"
     "six-step-120-3000|--strategy six-step-120 --speed-rpm 3000"
     "default-3000-load-1e-3|--speed-rpm 3000 --load-nm 1e-3")
-case "$mode" in record) seeds=$(seq 1 16) ;; check) seeds=$(seq 1 8) ;;
+case "$mode" in record) n_seeds=16 ;; check) n_seeds=8 ;;
     *) echo "error: mode is record or check, got '$mode'" >&2; exit 2 ;; esac
 if [ "$mode" = check ] && [ ! -r "$file" ]; then
     echo "error: reference $file not readable; record one from the reference tree first" >&2
@@ -38,20 +41,29 @@ tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 for p in "${points[@]}"; do
     name=${p%%|*}
-    for s in $seeds; do
+    for s in $(seq 1 "$n_seeds"); do
+        # The exit status is the verdict (non-zero for a failed drive), judged below; a
+        # run that wrote no summary fails the check there.
         # shellcheck disable=SC2086 # the point's options are split on purpose
         "$bin" run ${p#*|} --seed "$s" --json "$tmp/$name.$s.json" >/dev/null || true
     done
 done
-python3 - "$mode" "$file" "$tmp" <<'PY'
+python3 - "$mode" "$file" "$tmp" "$n_seeds" "${points[@]%%|*}" <<'PY'
 import glob, json, math, os, sys
-mode, path, tmp = sys.argv[1:]
+mode, path, tmp, n_seeds, *points = sys.argv[1:]
+want_seeds = set(range(1, int(n_seeds) + 1))
 T_MAX = 3.5
 skip = {"wall_s", "realtime_factor", "speed_ref_rpm", "torque_lowpass_hz", "steady_from_s", "sim_s"}
 runs = {}
 for f in sorted(glob.glob(os.path.join(tmp, "*.json"))):
     name, seed, _ = os.path.basename(f).rsplit(".", 2)
     runs.setdefault(name, {})[int(seed)] = json.load(open(f))["summary"]
+# Every point's every seed must have run: a crash is not a draw to leave out.
+missing = {p: sorted(want_seeds - set(runs.get(p, {}))) for p in points}
+missing = {p: m for p, m in missing.items() if m}
+if missing:
+    print(f"FAIL: runs without a summary (crashed or refused): {missing}")
+    sys.exit(1)
 
 def numeric(v):
     return isinstance(v, (int, float)) and not isinstance(v, bool)
@@ -66,9 +78,13 @@ if mode == "record":
         seeds = sorted(by_seed)
         figs = {}
         for k, v in by_seed[1].items():
-            if k in skip or not numeric(v):
+            if k in skip or isinstance(v, (str, bool, list, dict)):
                 continue
-            vals = [by_seed[s][k] for s in seeds]
+            vals = [by_seed[s].get(k) for s in seeds]
+            if not all(numeric(x) for x in vals):
+                # serde_json writes a non-finite figure as null: no reference to keep.
+                print(f"error: {name}: {k} is not a finite number at every seed: {vals}")
+                sys.exit(1)
             figs[k] = {"min": min(vals), "max": max(vals), "seed1": v, "values": vals}
         spread[name] = {"verdict": by_seed[1]["verdict"],
                         "verdicts": sorted({by_seed[s]["verdict"] for s in seeds}),
@@ -79,19 +95,22 @@ if mode == "record":
 
 spread = json.load(open(path))
 bad = 0
-for name, ref in spread.items():
-    by_seed = runs.get(name, {})
-    if 1 not in by_seed:
-        print(f"FAIL {name}: the changed tree's run failed"); bad += 1; continue
+for name in points:
+    if name not in spread:
+        print(f"FAIL {name}: not in the reference {path}; record it again"); bad += 1; continue
+    ref, by_seed = spread[name], runs[name]
     new = by_seed[1]
     bad_before = bad
     verdicts = ref.get("verdicts", [ref["verdict"]])
     strange = sorted({s["verdict"] for s in by_seed.values()} - set(verdicts))
-    if strange or (len(verdicts) == 1 and new["verdict"] != ref["verdict"]):
-        print(f"FAIL {name}: verdicts {strange or new['verdict']} (reference {verdicts})"); bad += 1
+    if strange:
+        print(f"FAIL {name}: verdicts {strange} (reference {verdicts})"); bad += 1
     worst, redrawn = (0.0, None), []
     for k, r in ref["figures"].items():
         v = new.get(k)
+        if not numeric(v):
+            print(f"FAIL {name}: {k} = {v} (rule: a finite number, as in the reference)"); bad += 1
+            continue
         rng = r["max"] - r["min"]
         lo, hi = r["min"] - 0.1 * rng, r["max"] + 0.1 * rng
         if v is not None and lo <= v <= hi:
@@ -100,7 +119,10 @@ for name, ref in spread.items():
                 worst = (abs(v - r["seed1"]) / rng, k)
             continue
         # Seed 1 fell outside: a shift, or a new draw of the same distribution?
-        xs = [s[k] for s in by_seed.values() if numeric(s.get(k))]
+        xs = [s.get(k) for s in by_seed.values()]
+        if not all(numeric(x) for x in xs):
+            print(f"FAIL {name}: {k} is not a finite number at every seed: {xs}"); bad += 1
+            continue
         if rng == 0 or "values" not in r or len(xs) < 2:
             print(f"FAIL {name}: {k} = {v} outside [{lo}, {hi}] (seed 1 was {r['seed1']})"); bad += 1
             continue
