@@ -957,11 +957,9 @@ impl Front {
     /// nanovolt is dropped first, so that bounds skip the envelope.
     fn record(&mut self, t0: f64, t1: f64, k0: &Knot, k1: &Knot) -> Record {
         let h = t1 - t0;
-        let mut env0 = self.ring_envelope(t0);
-        if self.ring.mag != 0.0 && env0 < 1e-9 {
+        if self.ring.mag != 0.0 && self.ring_envelope(t0) < 1e-9 {
             self.ring.z = (0.0, 0.0);
             self.ring.mag = 0.0;
-            env0 = 0.0;
         }
         // One division per step: the four filter inputs' slopes share 1/h.
         let inv_h = 1.0 / h;
@@ -1009,7 +1007,7 @@ impl Front {
             fn_,
             eh: (self.decay_cache.1, self.decay_cache.2),
             first,
-            env0,
+            env_first: self.ring_envelope_at(k_start),
             ring: self.ring,
         }
     }
@@ -1038,9 +1036,12 @@ impl Front {
             k: rec.k_start,
             k_end: rec.k_end,
         });
-        let w = [1.0, 1.0, rec.eh.0, rec.eh.1];
-        let (a, env) = (self.noise_a, rec.env0);
-        let open = self.may_toggle(&cur.c, self.out.get(x), 0.0, rec.h, w, env, -a, a);
+        // From the first tick on, as the scan's bounds: the step's start instant is the
+        // last one's, and a PWM edge's ringing has decayed by a tick there (10 % at 0.2 µs).
+        let ta = tick_instant(rec.k_start) - rec.t0;
+        let w = [rec.first.0, rec.first.1, rec.eh.0, rec.eh.1];
+        let (a, env) = (self.noise_a, rec.env_first);
+        let open = self.may_toggle(&cur.c, self.out.get(x), ta, rec.h, w, env, -a, a);
         if !open {
             *slot = None;
         }

@@ -27,9 +27,9 @@ pub(super) struct Record {
     /// e^{−h/τp}, e^{−h/τn}, and the decays at the first tick.
     pub(super) eh: (f64, f64),
     pub(super) first: (f64, f64),
-    /// The ringing over the step, and its envelope at the start \[V\].
+    /// The ringing over the step, and its envelope at the first tick \[V\].
     pub(super) ring: Ring,
-    pub(super) env0: f64,
+    pub(super) env_first: f64,
 }
 
 impl Record {
@@ -68,7 +68,7 @@ impl Records {
             eh: (1.0, 1.0),
             first: (1.0, 1.0),
             ring: Ring::default(),
-            env0: 0.0,
+            env_first: 0.0,
         };
         Records {
             buf: [rec; RECORDS],

@@ -29,7 +29,7 @@ persist_fields!(Record {
     eh,
     first,
     ring,
-    env0
+    env_first
 });
 persist_fields!(Records { buf, first, len });
 persist_fields!(History { toggles, base });
