@@ -293,9 +293,21 @@ impl Circuit {
         i: &Abc<f64>,
         e: &Abc<f64>,
     ) -> Solution {
-        if !plan.shared {
-            return self.solve(modes, i, e);
+        // Compiled once per open leg (or none), so the open leg's terms are not computed.
+        match plan.open {
+            _ if !plan.shared => self.solve(modes, i, e),
+            0 => self.solve_shared::<0>(plan, i, e),
+            1 => self.solve_shared::<1>(plan, i, e),
+            2 => self.solve_shared::<2>(plan, i, e),
+            _ => self.solve_shared::<3>(plan, i, e),
         }
+    }
+
+    /// [`Circuit::solve_planned`] for a state with two or more legs conducting, leg `OPEN`
+    /// open (3: none). The terms [`Circuit::solve`] skips are not added at all rather than
+    /// added as 0.0: each sum starts at +0.0 and so is never −0.0, and x + 0.0 = x then.
+    #[inline(always)]
+    fn solve_shared<const OPEN: usize>(&self, plan: &Plan, i: &Abc<f64>, e: &Abc<f64>) -> Solution {
         let i = i.to_array();
         let e = e.to_array();
         let mut i_sh = 0.0;
@@ -312,32 +324,31 @@ impl Circuit {
             ..Powers::default()
         };
         for k in 0..3 {
+            if k == OPEN {
+                continue;
+            }
             let ix = i[k];
             let vx = plan.vs[k] + if plan.low[k] { v_lr } else { 0.0 } - plan.rs[k] * ix;
-            let on = plan.on[k];
-            v[k] = if on { vx } else { 0.0 };
-            sum += if on { vx - self.r * ix - e[k] } else { 0.0 };
-            pw.supply += if plan.high[k] { self.vdd * ix } else { 0.0 };
-            pw.diode += if plan.diode[k] {
-                self.vf * ix.abs() + self.r_d * ix * ix
+            v[k] = vx;
+            sum += vx - self.r * ix - e[k];
+            if plan.high[k] {
+                pw.supply += self.vdd * ix;
+            }
+            if plan.diode[k] {
+                pw.diode += self.vf * ix.abs() + self.r_d * ix * ix;
             } else {
-                0.0
-            };
-            pw.switch += if on && !plan.diode[k] {
-                self.r_on * ix * ix
-            } else {
-                0.0
-            };
-            pw.copper += if on { self.r * ix * ix } else { 0.0 };
-            pw.airgap += if on { e[k] * ix } else { 0.0 };
+                pw.switch += self.r_on * ix * ix;
+            }
+            pw.copper += self.r * ix * ix;
+            pw.airgap += e[k] * ix;
         }
         let v_n = sum / plan.n_c;
         let mut di = [0.0; 3];
         for k in 0..3 {
-            if plan.on[k] {
-                di[k] = (v[k] - v_n - self.r * i[k] - e[k]) * self.inv_l;
-            } else {
+            if k == OPEN {
                 v[k] = v_n + e[k];
+            } else {
+                di[k] = (v[k] - v_n - self.r * i[k] - e[k]) * self.inv_l;
             }
         }
         Solution::of(di, v, v_n, i_sh, pw)
@@ -349,6 +360,7 @@ impl Circuit {
         let n_c = m.iter().filter(|c| c.conducts()).count();
         Plan {
             shared: n_c >= 2,
+            open: m.iter().position(|c| !c.conducts()).unwrap_or(3),
             n_c: n_c as f64,
             on: m.map(Conduction::conducts),
             low: m.map(Conduction::is_low),
@@ -529,6 +541,8 @@ impl Circuit {
 #[derive(Copy, Clone, Debug, Default, PartialEq)]
 pub struct Plan {
     shared: bool,
+    /// The open leg's index, 3 with none (with `shared`, at most one leg is open).
+    open: usize,
     n_c: f64,
     on: [bool; 3],
     low: [bool; 3],
