@@ -127,6 +127,25 @@ pub struct Powers {
     pub airgap: f64,
 }
 
+impl Powers {
+    /// Powers whose losses (copper, switch, diode, shunt) are not made yet (see
+    /// [`Circuit::solve_planned_losses_later`]): marked by a copper loss of −0.0, which a made one, a sum
+    /// from +0.0 of R·i² ≥ 0, never is.
+    const LOSSES_LATER: Powers = Powers {
+        supply: 0.0,
+        copper: -0.0,
+        switch: 0.0,
+        diode: 0.0,
+        shunt: 0.0,
+        airgap: 0.0,
+    };
+
+    /// Whether the losses are made (see [`Circuit::with_losses`]).
+    pub fn has_losses(&self) -> bool {
+        !self.copper.is_sign_negative()
+    }
+}
+
 /// The network's state at one instant.
 #[derive(Copy, Clone, Debug, Default, PartialEq)]
 pub struct Solution {
@@ -285,8 +304,35 @@ impl Circuit {
     /// [`Circuit::solve`] for the conduction state `plan` was made for (see [`Plan`]): the
     /// same operations in the same order, so the same result bit for bit, without decoding
     /// the legs' states at every call.
-    #[inline]
+    #[inline(never)]
     pub fn solve_planned(
+        &self,
+        plan: &Plan,
+        modes: &Abc<Conduction>,
+        i: &Abc<f64>,
+        e: &Abc<f64>,
+    ) -> Solution {
+        self.solve_planned_with::<true>(plan, modes, i, e)
+    }
+
+    /// [`Circuit::solve_planned`] but, with two or more legs conducting, the losses
+    /// (copper, switch, diode, shunt) left to [`Circuit::with_losses`]
+    /// ([`Powers::has_losses`] false): they follow from the currents alone, and most
+    /// solutions (a step's end, an event's search) are never asked for them.
+    #[inline(never)]
+    pub fn solve_planned_losses_later(
+        &self,
+        plan: &Plan,
+        modes: &Abc<Conduction>,
+        i: &Abc<f64>,
+        e: &Abc<f64>,
+    ) -> Solution {
+        self.solve_planned_with::<false>(plan, modes, i, e)
+    }
+
+    /// [`Circuit::solve_planned`], the losses made if `LOSSES`.
+    #[inline(always)]
+    fn solve_planned_with<const LOSSES: bool>(
         &self,
         plan: &Plan,
         modes: &Abc<Conduction>,
@@ -296,18 +342,23 @@ impl Circuit {
         // Compiled once per open leg (or none), so the open leg's terms are not computed.
         match plan.open {
             _ if !plan.shared => self.solve(modes, i, e),
-            0 => self.solve_shared::<0>(plan, i, e),
-            1 => self.solve_shared::<1>(plan, i, e),
-            2 => self.solve_shared::<2>(plan, i, e),
-            _ => self.solve_shared::<3>(plan, i, e),
+            0 => self.solve_shared::<0, LOSSES>(plan, i, e),
+            1 => self.solve_shared::<1, LOSSES>(plan, i, e),
+            2 => self.solve_shared::<2, LOSSES>(plan, i, e),
+            _ => self.solve_shared::<3, LOSSES>(plan, i, e),
         }
     }
 
-    /// [`Circuit::solve_planned`] for a state with two or more legs conducting, leg `OPEN`
-    /// open (3: none). The terms [`Circuit::solve`] skips are not added at all rather than
-    /// added as 0.0: each sum starts at +0.0 and so is never −0.0, and x + 0.0 = x then.
+    /// [`Circuit::solve_planned_with`] for a state with two or more legs conducting, leg
+    /// `OPEN` open (3: none). The terms [`Circuit::solve`] skips are not added at all rather
+    /// than added as 0.0: each sum starts at +0.0 and so is never −0.0, and x + 0.0 = x then.
     #[inline(always)]
-    fn solve_shared<const OPEN: usize>(&self, plan: &Plan, i: &Abc<f64>, e: &Abc<f64>) -> Solution {
+    fn solve_shared<const OPEN: usize, const LOSSES: bool>(
+        &self,
+        plan: &Plan,
+        i: &Abc<f64>,
+        e: &Abc<f64>,
+    ) -> Solution {
         let i = i.to_array();
         let e = e.to_array();
         let mut i_sh = 0.0;
@@ -319,9 +370,13 @@ impl Circuit {
         let v_lr = self.r_sh * i_sh;
         let mut v = [0.0; 3];
         let mut sum = 0.0;
-        let mut pw = Powers {
-            shunt: self.r_sh * i_sh * i_sh,
-            ..Powers::default()
+        let mut pw = if LOSSES {
+            Powers {
+                shunt: self.r_sh * i_sh * i_sh,
+                ..Powers::default()
+            }
+        } else {
+            Powers::LOSSES_LATER
         };
         for k in 0..3 {
             if k == OPEN {
@@ -334,12 +389,14 @@ impl Circuit {
             if plan.high[k] {
                 pw.supply += self.vdd * ix;
             }
-            if plan.diode[k] {
-                pw.diode += self.vf * ix.abs() + self.r_d * ix * ix;
-            } else {
-                pw.switch += self.r_on * ix * ix;
+            if LOSSES {
+                if plan.diode[k] {
+                    pw.diode += self.vf * ix.abs() + self.r_d * ix * ix;
+                } else {
+                    pw.switch += self.r_on * ix * ix;
+                }
+                pw.copper += self.r * ix * ix;
             }
-            pw.copper += self.r * ix * ix;
             pw.airgap += e[k] * ix;
         }
         let v_n = sum / plan.n_c;
@@ -352,6 +409,37 @@ impl Circuit {
             }
         }
         Solution::of(di, v, v_n, i_sh, pw)
+    }
+
+    /// `s`'s powers with the losses (copper, switch, diode, shunt \[W\]) made for currents
+    /// `i` in `plan`'s state, as [`Circuit::solve`] makes them (the same operations in the
+    /// same order), `s` being [`Circuit::solve_planned_losses_later`]'s solution for `plan`
+    /// and `i`. Out of line: the few solutions asked for their losses are the exception.
+    #[cold]
+    #[inline(never)]
+    pub fn with_losses(&self, plan: &Plan, i: &Abc<f64>, s: &Solution) -> Powers {
+        let i = i.to_array();
+        let (mut switch, mut diode, mut copper) = (0.0, 0.0, 0.0);
+        for k in 0..3 {
+            if !plan.on[k] {
+                continue;
+            }
+            let ix = i[k];
+            if plan.diode[k] {
+                diode += self.vf * ix.abs() + self.r_d * ix * ix;
+            } else {
+                switch += self.r_on * ix * ix;
+            }
+            copper += self.r * ix * ix;
+        }
+        Powers {
+            // R_sh·i_sh², the shunt current being the solution's own.
+            shunt: self.r_sh * s.i_shunt * s.i_shunt,
+            switch,
+            diode,
+            copper,
+            ..s.powers
+        }
     }
 
     /// The plan of [`Circuit::solve_planned`] for conduction state `modes`.
