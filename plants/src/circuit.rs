@@ -594,15 +594,8 @@ impl Circuit {
                 .iter()
                 .filter(|&&q| trial.get(q).conducts())
                 .count();
-            if conducting < 2 {
-                // Only a diode pair can carry current: the rectifier case (|e spread| > V_DD + 2V_f).
-                let (hi_p, lo_p) = extreme_phases(e);
-                let kept = keep_open == Some(hi_p) || keep_open == Some(lo_p);
-                if kept || modes.get(hi_p).conducts() || modes.get(lo_p).conducts() {
-                    break;
-                }
-                *trial.get_mut(hi_p) = Conduction::DiodeHigh;
-                *trial.get_mut(lo_p) = Conduction::DiodeLow;
+            if conducting < 2 && !rectifier_pair(e, &modes, keep_open, &mut trial) {
+                break;
             }
             let s = solve(&trial);
             let consistent = Phase::ALL
@@ -726,6 +719,28 @@ impl Circuit {
         }
         lin
     }
+}
+
+/// The rectifier case of [`Circuit::resolve_with`], where only a diode pair can carry
+/// current (|e spread| > V_DD + 2V_f): the pair of the extreme back-EMFs set in `trial`
+/// unless either is kept open or conducts in `modes` already (then false). Cold and out of
+/// line, so that a common re-resolve does not find the extremes ahead of its loop.
+#[cold]
+#[inline(never)]
+fn rectifier_pair(
+    e: &Abc<f64>,
+    modes: &Abc<Conduction>,
+    keep_open: Option<Phase>,
+    trial: &mut Abc<Conduction>,
+) -> bool {
+    let (hi_p, lo_p) = extreme_phases(e);
+    let kept = keep_open == Some(hi_p) || keep_open == Some(lo_p);
+    if kept || modes.get(hi_p).conducts() || modes.get(lo_p).conducts() {
+        return false;
+    }
+    *trial.get_mut(hi_p) = Conduction::DiodeHigh;
+    *trial.get_mut(lo_p) = Conduction::DiodeLow;
+    true
 }
 
 fn extreme_phases(e: &Abc<f64>) -> (Phase, Phase) {
