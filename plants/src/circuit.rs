@@ -420,11 +420,10 @@ impl Circuit {
     pub fn with_losses(&self, plan: &Plan, i: &Abc<f64>, s: &Solution) -> Powers {
         let i = i.to_array();
         let (mut switch, mut diode, mut copper) = (0.0, 0.0, 0.0);
-        for k in 0..3 {
+        for (k, &ix) in i.iter().enumerate() {
             if !plan.on[k] {
                 continue;
             }
-            let ix = i[k];
             if plan.diode[k] {
                 diode += self.vf * ix.abs() + self.r_d * ix * ix;
             } else {
