@@ -465,7 +465,7 @@ impl BldcPlant {
     fn solve_near(&self, x: &State, base: (f64, f64, f64)) -> Solution {
         let f = emf::shape_with(&self.shape, x[THETA], emf::sin_cos_near(x[THETA], base));
         let k = self.lambda * self.pp * x[OMEGA];
-        self.circuit.solve_planned(
+        self.circuit.solve_planned_losses_later(
             &self.form().2,
             &self.modes,
             &Self::currents(x),
@@ -496,7 +496,7 @@ impl BldcPlant {
         let sc = emf::sin_cos_near(x[THETA], base);
         let f = emf::shape_with(&self.shape, x[THETA], sc);
         let k = self.lambda * self.pp * x[OMEGA];
-        let s = self.circuit.solve_planned(
+        let s = self.circuit.solve_planned_losses_later(
             &self.form().2,
             &self.modes,
             &Self::currents(x),
@@ -507,10 +507,18 @@ impl BldcPlant {
 
     /// The state derivative at `x`, whose network solution is `s` and whose angle with its
     /// sine and cosine is `(θ, sin θ, cos θ)`: the solution's di/dt and powers make it, so
-    /// the back-EMF and the network are not evaluated again.
+    /// the back-EMF and the network are not evaluated again (the losses, where the planned
+    /// solve left them out, from the currents alone).
+    #[inline(always)]
     fn end_derivative(&self, x: &State, s: &Solution, (th, sn, cs): (f64, f64, f64)) -> State {
         let f = emf::shape_with(&self.shape, th, (sn, cs));
-        self.assemble(&dynamic(x), &f, s.di.to_array(), &s.powers)
+        let p = if s.powers.has_losses() {
+            s.powers
+        } else {
+            self.circuit
+                .with_losses(&self.form().2, &Self::currents(x), s)
+        };
+        self.assemble(&dynamic(x), &f, s.di.to_array(), &p)
     }
 
     /// The state derivative from the network's di/dt and powers `p` at state `x`, whose

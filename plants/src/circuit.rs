@@ -127,6 +127,25 @@ pub struct Powers {
     pub airgap: f64,
 }
 
+impl Powers {
+    /// Powers whose losses (copper, switch, diode, shunt) are not made yet (see
+    /// [`Circuit::solve_planned_losses_later`]): marked by a copper loss of −0.0, which a made one, a sum
+    /// from +0.0 of R·i² ≥ 0, never is.
+    const LOSSES_LATER: Powers = Powers {
+        supply: 0.0,
+        copper: -0.0,
+        switch: 0.0,
+        diode: 0.0,
+        shunt: 0.0,
+        airgap: 0.0,
+    };
+
+    /// Whether the losses are made (see [`Circuit::with_losses`]).
+    pub fn has_losses(&self) -> bool {
+        !self.copper.is_sign_negative()
+    }
+}
+
 /// The network's state at one instant.
 #[derive(Copy, Clone, Debug, Default, PartialEq)]
 pub struct Solution {
@@ -285,7 +304,7 @@ impl Circuit {
     /// [`Circuit::solve`] for the conduction state `plan` was made for (see [`Plan`]): the
     /// same operations in the same order, so the same result bit for bit, without decoding
     /// the legs' states at every call.
-    #[inline]
+    #[inline(never)]
     pub fn solve_planned(
         &self,
         plan: &Plan,
@@ -293,9 +312,53 @@ impl Circuit {
         i: &Abc<f64>,
         e: &Abc<f64>,
     ) -> Solution {
-        if !plan.shared {
-            return self.solve(modes, i, e);
+        self.solve_planned_with::<true>(plan, modes, i, e)
+    }
+
+    /// [`Circuit::solve_planned`] but, with two or more legs conducting, the losses
+    /// (copper, switch, diode, shunt) left to [`Circuit::with_losses`]
+    /// ([`Powers::has_losses`] false): they follow from the currents alone, and most
+    /// solutions (a step's end, an event's search) are never asked for them.
+    #[inline(never)]
+    pub fn solve_planned_losses_later(
+        &self,
+        plan: &Plan,
+        modes: &Abc<Conduction>,
+        i: &Abc<f64>,
+        e: &Abc<f64>,
+    ) -> Solution {
+        self.solve_planned_with::<false>(plan, modes, i, e)
+    }
+
+    /// [`Circuit::solve_planned`], the losses made if `LOSSES`.
+    #[inline(always)]
+    fn solve_planned_with<const LOSSES: bool>(
+        &self,
+        plan: &Plan,
+        modes: &Abc<Conduction>,
+        i: &Abc<f64>,
+        e: &Abc<f64>,
+    ) -> Solution {
+        // Compiled once per open leg (or none), so the open leg's terms are not computed.
+        match plan.open {
+            _ if !plan.shared => self.solve(modes, i, e),
+            0 => self.solve_shared::<0, LOSSES>(plan, i, e),
+            1 => self.solve_shared::<1, LOSSES>(plan, i, e),
+            2 => self.solve_shared::<2, LOSSES>(plan, i, e),
+            _ => self.solve_shared::<3, LOSSES>(plan, i, e),
         }
+    }
+
+    /// [`Circuit::solve_planned_with`] for a state with two or more legs conducting, leg
+    /// `OPEN` open (3: none). The terms [`Circuit::solve`] skips are not added at all rather
+    /// than added as 0.0: each sum starts at +0.0 and so is never −0.0, and x + 0.0 = x then.
+    #[inline(always)]
+    fn solve_shared<const OPEN: usize, const LOSSES: bool>(
+        &self,
+        plan: &Plan,
+        i: &Abc<f64>,
+        e: &Abc<f64>,
+    ) -> Solution {
         let i = i.to_array();
         let e = e.to_array();
         let mut i_sh = 0.0;
@@ -307,40 +370,75 @@ impl Circuit {
         let v_lr = self.r_sh * i_sh;
         let mut v = [0.0; 3];
         let mut sum = 0.0;
-        let mut pw = Powers {
-            shunt: self.r_sh * i_sh * i_sh,
-            ..Powers::default()
+        let mut pw = if LOSSES {
+            Powers {
+                shunt: self.r_sh * i_sh * i_sh,
+                ..Powers::default()
+            }
+        } else {
+            Powers::LOSSES_LATER
         };
         for k in 0..3 {
+            if k == OPEN {
+                continue;
+            }
             let ix = i[k];
             let vx = plan.vs[k] + if plan.low[k] { v_lr } else { 0.0 } - plan.rs[k] * ix;
-            let on = plan.on[k];
-            v[k] = if on { vx } else { 0.0 };
-            sum += if on { vx - self.r * ix - e[k] } else { 0.0 };
-            pw.supply += if plan.high[k] { self.vdd * ix } else { 0.0 };
-            pw.diode += if plan.diode[k] {
-                self.vf * ix.abs() + self.r_d * ix * ix
-            } else {
-                0.0
-            };
-            pw.switch += if on && !plan.diode[k] {
-                self.r_on * ix * ix
-            } else {
-                0.0
-            };
-            pw.copper += if on { self.r * ix * ix } else { 0.0 };
-            pw.airgap += if on { e[k] * ix } else { 0.0 };
+            v[k] = vx;
+            sum += vx - self.r * ix - e[k];
+            if plan.high[k] {
+                pw.supply += self.vdd * ix;
+            }
+            if LOSSES {
+                if plan.diode[k] {
+                    pw.diode += self.vf * ix.abs() + self.r_d * ix * ix;
+                } else {
+                    pw.switch += self.r_on * ix * ix;
+                }
+                pw.copper += self.r * ix * ix;
+            }
+            pw.airgap += e[k] * ix;
         }
         let v_n = sum / plan.n_c;
         let mut di = [0.0; 3];
         for k in 0..3 {
-            if plan.on[k] {
-                di[k] = (v[k] - v_n - self.r * i[k] - e[k]) * self.inv_l;
-            } else {
+            if k == OPEN {
                 v[k] = v_n + e[k];
+            } else {
+                di[k] = (v[k] - v_n - self.r * i[k] - e[k]) * self.inv_l;
             }
         }
         Solution::of(di, v, v_n, i_sh, pw)
+    }
+
+    /// `s`'s powers with the losses (copper, switch, diode, shunt \[W\]) made for currents
+    /// `i` in `plan`'s state, as [`Circuit::solve`] makes them (the same operations in the
+    /// same order), `s` being [`Circuit::solve_planned_losses_later`]'s solution for `plan`
+    /// and `i`. Out of line: the few solutions asked for their losses are the exception.
+    #[cold]
+    #[inline(never)]
+    pub fn with_losses(&self, plan: &Plan, i: &Abc<f64>, s: &Solution) -> Powers {
+        let i = i.to_array();
+        let (mut switch, mut diode, mut copper) = (0.0, 0.0, 0.0);
+        for (k, &ix) in i.iter().enumerate() {
+            if !plan.on[k] {
+                continue;
+            }
+            if plan.diode[k] {
+                diode += self.vf * ix.abs() + self.r_d * ix * ix;
+            } else {
+                switch += self.r_on * ix * ix;
+            }
+            copper += self.r * ix * ix;
+        }
+        Powers {
+            // R_sh·i_sh², the shunt current being the solution's own.
+            shunt: self.r_sh * s.i_shunt * s.i_shunt,
+            switch,
+            diode,
+            copper,
+            ..s.powers
+        }
     }
 
     /// The plan of [`Circuit::solve_planned`] for conduction state `modes`.
@@ -349,6 +447,7 @@ impl Circuit {
         let n_c = m.iter().filter(|c| c.conducts()).count();
         Plan {
             shared: n_c >= 2,
+            open: m.iter().position(|c| !c.conducts()).unwrap_or(3),
             n_c: n_c as f64,
             on: m.map(Conduction::conducts),
             low: m.map(Conduction::is_low),
@@ -494,15 +593,8 @@ impl Circuit {
                 .iter()
                 .filter(|&&q| trial.get(q).conducts())
                 .count();
-            if conducting < 2 {
-                // Only a diode pair can carry current: the rectifier case (|e spread| > V_DD + 2V_f).
-                let (hi_p, lo_p) = extreme_phases(e);
-                let kept = keep_open == Some(hi_p) || keep_open == Some(lo_p);
-                if kept || modes.get(hi_p).conducts() || modes.get(lo_p).conducts() {
-                    break;
-                }
-                *trial.get_mut(hi_p) = Conduction::DiodeHigh;
-                *trial.get_mut(lo_p) = Conduction::DiodeLow;
+            if conducting < 2 && !rectifier_pair(e, &modes, keep_open, &mut trial) {
+                break;
             }
             let s = solve(&trial);
             let consistent = Phase::ALL
@@ -529,6 +621,8 @@ impl Circuit {
 #[derive(Copy, Clone, Debug, Default, PartialEq)]
 pub struct Plan {
     shared: bool,
+    /// The open leg's index, 3 with none (with `shared`, at most one leg is open).
+    open: usize,
     n_c: f64,
     on: [bool; 3],
     low: [bool; 3],
@@ -624,6 +718,28 @@ impl Circuit {
         }
         lin
     }
+}
+
+/// The rectifier case of [`Circuit::resolve_with`], where only a diode pair can carry
+/// current (|e spread| > V_DD + 2V_f): the pair of the extreme back-EMFs set in `trial`
+/// unless either is kept open or conducts in `modes` already (then false). Cold and out of
+/// line, so that a common re-resolve does not find the extremes ahead of its loop.
+#[cold]
+#[inline(never)]
+fn rectifier_pair(
+    e: &Abc<f64>,
+    modes: &Abc<Conduction>,
+    keep_open: Option<Phase>,
+    trial: &mut Abc<Conduction>,
+) -> bool {
+    let (hi_p, lo_p) = extreme_phases(e);
+    let kept = keep_open == Some(hi_p) || keep_open == Some(lo_p);
+    if kept || modes.get(hi_p).conducts() || modes.get(lo_p).conducts() {
+        return false;
+    }
+    *trial.get_mut(hi_p) = Conduction::DiodeHigh;
+    *trial.get_mut(lo_p) = Conduction::DiodeLow;
+    true
 }
 
 fn extreme_phases(e: &Abc<f64>) -> (Phase, Phase) {
