@@ -7,7 +7,7 @@
 //! [`Engine::step`] reports why it stopped. The step loop allocates nothing.
 
 use crate::abc::Phase;
-use crate::bridge::{Gates, ShootThrough};
+use crate::bridge::{GateMask, Gates, Pattern, ShootThrough};
 use crate::control::{Command, Controller, Sensed};
 use crate::gate_driver::GateDriver;
 use crate::plant::{Plant, PlantStop, Watch};
@@ -78,6 +78,9 @@ pub struct Engine<P, C, S> {
     driver: GateDriver,
     now: Ticks,
     cmd: Command,
+    /// The scheme's gates for `cmd.pattern` with the PWM output off and on (derived from
+    /// `cmd`, rebuilt when its pattern changes): a PWM edge picks one.
+    masks: [GateMask; 2],
     pwm_on: bool,
     wake: Ticks,
     sample_period: Ticks,
@@ -89,6 +92,7 @@ impl<P: Plant, C: Controller, S: PwmScheme> Engine<P, C, S> {
     /// Assembles an engine at t = 0 with the bridge off; the controller first runs at t = 0.
     pub fn new(plant: P, controller: C, scheme: S, carrier: Carrier, dead_time: Ticks) -> Self {
         Engine {
+            masks: Self::masks_of(&scheme, &Command::OFF.pattern),
             plant,
             controller,
             scheme,
@@ -119,6 +123,7 @@ impl<P: Plant, C: Controller, S: PwmScheme> Engine<P, C, S> {
             driver: self.driver.clone(),
             now: self.now,
             cmd: self.cmd,
+            masks: self.masks,
             pwm_on: self.pwm_on,
             wake: self.wake,
             sample_period: self.sample_period,
@@ -256,22 +261,37 @@ impl<P: Plant, C: Controller, S: PwmScheme> Engine<P, C, S> {
         })
     }
 
+    /// The gates `scheme` gives `pattern` with the PWM output off and on.
+    fn masks_of(scheme: &S, pattern: &Pattern) -> [GateMask; 2] {
+        [false, true].map(|on| scheme.gates(pattern, on).into())
+    }
+
+    /// Puts `cmd` in force, with its gates when its pattern differs.
+    fn set_command(&mut self, cmd: Command) {
+        if cmd.pattern != self.cmd.pattern {
+            self.masks = Self::masks_of(&self.scheme, &cmd.pattern);
+        }
+        self.cmd = cmd;
+    }
+
     /// Everything due at instant `t`: controller tick, PWM state, gate-driver releases.
     fn act(&mut self, t: Ticks, tick: bool, released: bool) -> Result<(), EngineError> {
         if tick {
             self.last_tick = Some(t);
             let sensed = self.plant.sensed(t);
-            self.cmd = self.controller.tick(t, &sensed);
+            let cmd = self.controller.tick(t, &sensed);
+            self.set_command(cmd);
             if let Err(e) = Self::check_reads(t, &sensed) {
                 // Its command rests on a value it should not have read: none is applied.
-                self.cmd = Command::OFF;
+                self.set_command(Command::OFF);
                 return Err(e);
             }
             if let Some(message) = self.controller.fault() {
-                self.cmd = Command::OFF;
+                let message = message.to_string();
+                self.set_command(Command::OFF);
                 return Err(EngineError::ControllerFault {
                     time_s: t.seconds(),
-                    message: message.to_string(),
+                    message,
                 });
             }
             let clock = self.controller.clock();
@@ -283,8 +303,8 @@ impl<P: Plant, C: Controller, S: PwmScheme> Engine<P, C, S> {
             };
         }
         self.pwm_on = self.carrier.is_on(t, self.cmd.duty);
-        let before = self.driver.effective();
-        let commanded = self.scheme.gates(&self.cmd.pattern, self.pwm_on);
+        let before = self.driver.effective_mask();
+        let commanded = self.masks[usize::from(self.pwm_on)];
         self.driver
             .command(t, commanded)
             .map_err(|source| EngineError::ShootThrough {
@@ -294,9 +314,9 @@ impl<P: Plant, C: Controller, S: PwmScheme> Engine<P, C, S> {
         if released {
             self.driver.release(t);
         }
-        let after = self.driver.effective();
+        let after = self.driver.effective_mask();
         if after != before {
-            self.plant.set_gates(&after);
+            self.plant.set_gates(&after.into());
         }
         Ok(())
     }
@@ -304,7 +324,7 @@ impl<P: Plant, C: Controller, S: PwmScheme> Engine<P, C, S> {
 
 /// The engine's clocks, command and gate driver, then the plant's and the controller's
 /// state; the scheme, carrier, dead time and sample period are parameters.
-impl<P: Plant + Persist, C: Controller + Persist, S> Persist for Engine<P, C, S> {
+impl<P: Plant + Persist, C: Controller + Persist, S: PwmScheme> Persist for Engine<P, C, S> {
     fn save(&self, w: &mut Writer) {
         self.driver.save(w);
         self.now.save(w);
@@ -320,6 +340,7 @@ impl<P: Plant + Persist, C: Controller + Persist, S> Persist for Engine<P, C, S>
         r.field("driver", &mut self.driver)?;
         r.field("now", &mut self.now)?;
         r.field("cmd", &mut self.cmd)?;
+        self.masks = Self::masks_of(&self.scheme, &self.cmd.pattern);
         r.field("pwm_on", &mut self.pwm_on)?;
         r.field("wake", &mut self.wake)?;
         r.field("started", &mut self.started)?;
