@@ -81,6 +81,9 @@ pub struct Engine<P, C, S> {
     /// The scheme's gates for `cmd.pattern` with the PWM output off and on (derived from
     /// `cmd`, rebuilt when its pattern changes): a PWM edge picks one.
     masks: [GateMask; 2],
+    /// The next PWM edge after `now` under `cmd.duty`, once known (derived: cleared when
+    /// either changes). Diode and sensing stops leave both, so their next step reuses it.
+    pwm_edge: Option<Ticks>,
     pwm_on: bool,
     wake: Ticks,
     sample_period: Ticks,
@@ -93,6 +96,7 @@ impl<P: Plant, C: Controller, S: PwmScheme> Engine<P, C, S> {
     pub fn new(plant: P, controller: C, scheme: S, carrier: Carrier, dead_time: Ticks) -> Self {
         Engine {
             masks: Self::masks_of(&scheme, &Command::OFF.pattern),
+            pwm_edge: None,
             plant,
             controller,
             scheme,
@@ -124,6 +128,7 @@ impl<P: Plant, C: Controller, S: PwmScheme> Engine<P, C, S> {
             now: self.now,
             cmd: self.cmd,
             masks: self.masks,
+            pwm_edge: self.pwm_edge,
             pwm_on: self.pwm_on,
             wake: self.wake,
             sample_period: self.sample_period,
@@ -181,10 +186,7 @@ impl<P: Plant, C: Controller, S: PwmScheme> Engine<P, C, S> {
         if self.now >= end {
             return Ok(StopReason::End);
         }
-        let pwm_edge = self
-            .carrier
-            .next_edge(self.now, self.cmd.duty)
-            .unwrap_or(Ticks::NEVER);
+        let pwm_edge = self.next_pwm_edge();
         let release = self.driver.next_release();
         let sample = if self.sample_period == Ticks::NEVER {
             Ticks::NEVER
@@ -227,6 +229,16 @@ impl<P: Plant, C: Controller, S: PwmScheme> Engine<P, C, S> {
                 })
             }
         }
+    }
+
+    /// The next PWM edge after now ([`Ticks::NEVER`] at 0 % and 100 %), computed once per
+    /// engine instant.
+    fn next_pwm_edge(&mut self) -> Ticks {
+        *self.pwm_edge.get_or_insert_with(|| {
+            self.carrier
+                .next_edge(self.now, self.cmd.duty)
+                .unwrap_or(Ticks::NEVER)
+        })
     }
 
     /// Steps until `end`, calling `on_step` after every stop.
@@ -276,6 +288,8 @@ impl<P: Plant, C: Controller, S: PwmScheme> Engine<P, C, S> {
 
     /// Everything due at instant `t`: controller tick, PWM state, gate-driver releases.
     fn act(&mut self, t: Ticks, tick: bool, released: bool) -> Result<(), EngineError> {
+        // A new instant, and perhaps a new duty.
+        self.pwm_edge = None;
         if tick {
             self.last_tick = Some(t);
             let sensed = self.plant.sensed(t);
@@ -341,6 +355,7 @@ impl<P: Plant + Persist, C: Controller + Persist, S: PwmScheme> Persist for Engi
         r.field("now", &mut self.now)?;
         r.field("cmd", &mut self.cmd)?;
         self.masks = Self::masks_of(&self.scheme, &self.cmd.pattern);
+        self.pwm_edge = None;
         r.field("pwm_on", &mut self.pwm_on)?;
         r.field("wake", &mut self.wake)?;
         r.field("started", &mut self.started)?;
