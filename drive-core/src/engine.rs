@@ -84,6 +84,9 @@ pub struct Engine<P, C, S> {
     /// The next PWM edge after `now` under `cmd.duty`, once known (derived: cleared when
     /// either changes). Diode and sensing stops leave both, so their next step reuses it.
     pwm_edge: Option<Ticks>,
+    /// What the plant is told to watch: `cmd`'s channels and reads, and the controller's
+    /// clock as of its last tick (derived; each step sets the horizon).
+    watch: Watch,
     pwm_on: bool,
     wake: Ticks,
     sample_period: Ticks,
@@ -97,6 +100,7 @@ impl<P: Plant, C: Controller, S: PwmScheme> Engine<P, C, S> {
         Engine {
             masks: Self::masks_of(&scheme, &Command::OFF.pattern),
             pwm_edge: None,
+            watch: Self::watch_of(&Command::OFF, controller.clock()),
             plant,
             controller,
             scheme,
@@ -129,6 +133,7 @@ impl<P: Plant, C: Controller, S: PwmScheme> Engine<P, C, S> {
             cmd: self.cmd,
             masks: self.masks,
             pwm_edge: self.pwm_edge,
+            watch: self.watch,
             pwm_on: self.pwm_on,
             wake: self.wake,
             sample_period: self.sample_period,
@@ -195,15 +200,13 @@ impl<P: Plant, C: Controller, S: PwmScheme> Engine<P, C, S> {
         };
         let target = end.min(pwm_edge).min(self.wake).min(release).min(sample);
         let watch = Watch {
-            channels: self.cmd.watch,
-            reads: self.cmd.reads,
-            clock: self.controller.clock(),
             horizon: pwm_edge.min(release).max(target),
+            ..self.watch
         };
         match self.plant.advance(target, watch) {
             PlantStop::Diode => Ok(StopReason::Diode),
             PlantStop::Sensing(at) => {
-                let edge = at.next_edge(self.controller.clock());
+                let edge = at.next_edge(self.watch.clock);
                 // A change the controller already sampled (it ran at or after that edge, e.g.
                 // a channel it just started watching) must not clock it twice.
                 if self.last_tick.is_none_or(|t| edge > t) {
@@ -278,11 +281,23 @@ impl<P: Plant, C: Controller, S: PwmScheme> Engine<P, C, S> {
         [false, true].map(|on| scheme.gates(pattern, on).into())
     }
 
-    /// Puts `cmd` in force, with its gates when its pattern differs.
+    /// What the plant watches under `cmd` with the controller's `clock` (no horizon yet).
+    fn watch_of(cmd: &Command, clock: Ticks) -> Watch {
+        Watch {
+            channels: cmd.watch,
+            reads: cmd.reads,
+            clock,
+            horizon: Ticks::NEVER,
+        }
+    }
+
+    /// Puts `cmd` in force, with its gates when its pattern differs, and its watch.
     fn set_command(&mut self, cmd: Command) {
         if cmd.pattern != self.cmd.pattern {
             self.masks = Self::masks_of(&self.scheme, &cmd.pattern);
         }
+        self.watch.channels = cmd.watch;
+        self.watch.reads = cmd.reads;
         self.cmd = cmd;
     }
 
@@ -294,6 +309,7 @@ impl<P: Plant, C: Controller, S: PwmScheme> Engine<P, C, S> {
             self.last_tick = Some(t);
             let sensed = self.plant.sensed(t);
             let cmd = self.controller.tick(t, &sensed);
+            self.watch.clock = self.controller.clock();
             self.set_command(cmd);
             if let Err(e) = Self::check_reads(t, &sensed) {
                 // Its command rests on a value it should not have read: none is applied.
@@ -308,7 +324,7 @@ impl<P: Plant, C: Controller, S: PwmScheme> Engine<P, C, S> {
                     message,
                 });
             }
-            let clock = self.controller.clock();
+            let clock = self.watch.clock;
             let asked = self.cmd.wake_at.max(Ticks(t.0 + 1));
             self.wake = if self.cmd.wake_at == Ticks::NEVER {
                 Ticks::NEVER
@@ -397,7 +413,9 @@ impl<P: Plant + Persist, C: Controller + Persist, S: PwmScheme> Persist for Engi
                 now.seconds()
             )
         })?;
-        r.field("controller", &mut self.controller)
+        r.field("controller", &mut self.controller)?;
+        self.watch = Self::watch_of(&self.cmd, self.controller.clock());
+        Ok(())
     }
 }
 
