@@ -81,8 +81,8 @@ pub struct Engine<P, C, S> {
     /// The scheme's gates for `cmd.pattern` with the PWM output off and on (derived from
     /// `cmd`, rebuilt when its pattern changes): a PWM edge picks one.
     masks: [GateMask; 2],
-    /// The next PWM edge after `now` under `cmd.duty`, once known (derived: cleared when
-    /// either changes). Diode and sensing stops leave both, so their next step reuses it.
+    /// The next PWM edge after `now` under `cmd.duty`, once known (derived: act, which
+    /// changes both, sets it). Diode and sensing stops leave both, so their steps reuse it.
     pwm_edge: Option<Ticks>,
     /// What the plant is told to watch: `cmd`'s channels and reads, and the controller's
     /// clock as of its last tick (derived; each step sets the horizon).
@@ -235,7 +235,7 @@ impl<P: Plant, C: Controller, S: PwmScheme> Engine<P, C, S> {
     }
 
     /// The next PWM edge after now ([`Ticks::NEVER`] at 0 % and 100 %), computed once per
-    /// engine instant.
+    /// engine instant (by act, or here after a restore).
     fn next_pwm_edge(&mut self) -> Ticks {
         *self.pwm_edge.get_or_insert_with(|| {
             self.carrier
@@ -332,7 +332,9 @@ impl<P: Plant, C: Controller, S: PwmScheme> Engine<P, C, S> {
                 asked.next_edge(clock)
             };
         }
-        self.pwm_on = self.carrier.is_on(t, self.cmd.duty);
+        let (on, edge) = self.carrier.on_and_next_edge(t, self.cmd.duty);
+        self.pwm_on = on;
+        self.pwm_edge = Some(edge.unwrap_or(Ticks::NEVER));
         let before = self.driver.effective_mask();
         let commanded = self.masks[usize::from(self.pwm_on)];
         self.driver
