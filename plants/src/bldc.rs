@@ -1185,13 +1185,17 @@ impl Plant for BldcPlant {
     fn set_gates(&mut self, gates: &Gates) {
         self.settle();
         let before = self.start.v_term;
-        let old = self.gates;
+        // Which legs switch, found before the re-resolve so the old gates need not outlive it.
+        let old = &self.gates;
+        let switched = Abc::from_fn(|p| {
+            old.high.get(p) != gates.high.get(p) || old.low.get(p) != gates.low.get(p)
+        });
         self.gates = *gates;
         self.refresh_start();
         // Ringing is excited by the largest switching-node step among the legs that switched.
         let mut dv: f64 = 0.0;
         for p in Phase::ALL {
-            if old.high.get(p) != gates.high.get(p) || old.low.get(p) != gates.low.get(p) {
+            if switched.get(p) {
                 let d = self.start.v_term.get(p) - before.get(p);
                 if d.abs() > dv.abs() {
                     dv = d;
