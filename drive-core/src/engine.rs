@@ -369,11 +369,22 @@ impl<P: Plant + Persist, C: Controller + Persist, S: PwmScheme> Persist for Engi
         self.controller.save(w);
     }
     fn restore(&mut self, r: &mut Reader) -> Result<(), String> {
+        let restored = self.restore_saved(r);
+        // What derives from the command and the controller follows whatever was restored,
+        // also when a later field failed.
+        self.masks = Self::masks_of(&self.scheme, &self.cmd.pattern);
+        self.pwm_edge = None;
+        self.watch = Self::watch_of(&self.cmd, self.controller.clock());
+        restored
+    }
+}
+
+impl<P: Plant + Persist, C: Controller + Persist, S: PwmScheme> Engine<P, C, S> {
+    /// [`Persist::restore`] of the saved fields, in the order saved.
+    fn restore_saved(&mut self, r: &mut Reader) -> Result<(), String> {
         r.field("driver", &mut self.driver)?;
         r.field("now", &mut self.now)?;
         r.field("cmd", &mut self.cmd)?;
-        self.masks = Self::masks_of(&self.scheme, &self.cmd.pattern);
-        self.pwm_edge = None;
         r.field("pwm_on", &mut self.pwm_on)?;
         r.field("wake", &mut self.wake)?;
         r.field("started", &mut self.started)?;
@@ -415,9 +426,7 @@ impl<P: Plant + Persist, C: Controller + Persist, S: PwmScheme> Persist for Engi
                 now.seconds()
             )
         })?;
-        r.field("controller", &mut self.controller)?;
-        self.watch = Self::watch_of(&self.cmd, self.controller.clock());
-        Ok(())
+        r.field("controller", &mut self.controller)
     }
 }
 
