@@ -115,6 +115,76 @@ impl Gates {
     }
 }
 
+/// The six gate commands packed in bits, Tr1..Tr6 from bit 0 (`high.u`, `low.u`, `high.v`,
+/// `low.v`, `high.w`, `low.w`): the engine's and gate driver's working form of [`Gates`].
+/// A PWM edge compares, checks and copies one byte rather than six flags one at a time.
+#[derive(Copy, Clone, Debug, Default, PartialEq, Eq, Hash)]
+pub struct GateMask(u8);
+
+impl GateMask {
+    /// Every switch off.
+    pub const OFF: GateMask = GateMask(0);
+
+    /// The high-side bits (even positions); a leg's low side is the bit above its high side.
+    const HIGH: u8 = 0b01_01_01;
+
+    /// Refuses a mask with both switches of a leg on, naming the first such leg.
+    pub fn validate(self) -> Result<(), ShootThrough> {
+        let both = self.0 & (self.0 >> 1) & Self::HIGH;
+        if both == 0 {
+            return Ok(());
+        }
+        Err(ShootThrough {
+            phase: Phase::ALL[both.trailing_zeros() as usize / 2],
+        })
+    }
+
+    /// Whether switch `k` (0..6: Tr1..Tr6) is on.
+    pub fn is_on(self, k: usize) -> bool {
+        self.0 >> k & 1 != 0
+    }
+
+    /// `self` with switch `k` (0..6: Tr1..Tr6) turned on or off.
+    pub fn with(self, k: usize, on: bool) -> GateMask {
+        GateMask(self.0 & !(1 << k) | u8::from(on) << k)
+    }
+}
+
+impl From<Gates> for GateMask {
+    fn from(g: Gates) -> GateMask {
+        let mut m = 0;
+        for p in Phase::ALL {
+            let k = 2 * p.index();
+            m |= u8::from(g.high.get(p)) << k | u8::from(g.low.get(p)) << (k + 1);
+        }
+        GateMask(m)
+    }
+}
+
+impl From<GateMask> for Gates {
+    fn from(m: GateMask) -> Gates {
+        GATES_OF_MASK[usize::from(m.0 & 0b11_11_11)]
+    }
+}
+
+/// The gates of every mask, built at compile time: a gate change converts by one load
+/// rather than six bit tests.
+const GATES_OF_MASK: [Gates; 64] = {
+    let mut table = [Gates::OFF; 64];
+    const fn on(m: usize, k: usize) -> bool {
+        m >> k & 1 != 0
+    }
+    let mut m = 0;
+    while m < 64 {
+        table[m] = Gates {
+            high: Abc::from_array([on(m, 0), on(m, 2), on(m, 4)]),
+            low: Abc::from_array([on(m, 1), on(m, 3), on(m, 5)]),
+        };
+        m += 1;
+    }
+    table
+};
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -141,5 +211,20 @@ mod tests {
         let e = g.validate().unwrap_err();
         assert_eq!(e.phase, Phase::V);
         assert!(e.to_string().contains("phase v"));
+    }
+
+    #[test]
+    fn a_gate_mask_holds_the_gates_and_refuses_the_same_shoot_throughs() {
+        // Every combination of the six switches, both ways and checked alike.
+        for bits in 0u8..64 {
+            let m = GateMask(bits);
+            let g = Gates::from(m);
+            assert_eq!(GateMask::from(g), m);
+            assert_eq!(m.validate(), g.validate(), "bits {bits:06b}");
+        }
+        let mut g = Gates::OFF;
+        g.high.u = true;
+        g.low.w = true;
+        assert_eq!(GateMask::from(g), GateMask(0b10_00_01));
     }
 }

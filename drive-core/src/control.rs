@@ -122,7 +122,8 @@ impl Command {
 /// must catch up from `now` (counters advance by the number of elapsed edges). This is what
 /// lets a 0.64 µs clock run without simulating every edge.
 pub trait Controller {
-    /// Clock period in master ticks (e.g. 32 = 0.64 µs).
+    /// Clock period in master ticks (e.g. 32 = 0.64 µs). The engine reads it when built or
+    /// restored and after each tick, so it may change only at a tick.
     fn clock(&self) -> Ticks;
 
     /// Runs the controller at the clock edge `now` with the signals it sees there.

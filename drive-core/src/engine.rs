@@ -7,7 +7,7 @@
 //! [`Engine::step`] reports why it stopped. The step loop allocates nothing.
 
 use crate::abc::Phase;
-use crate::bridge::{Gates, ShootThrough};
+use crate::bridge::{GateMask, Gates, Pattern, ShootThrough};
 use crate::control::{Command, Controller, Sensed};
 use crate::gate_driver::GateDriver;
 use crate::plant::{Plant, PlantStop, Watch};
@@ -78,6 +78,15 @@ pub struct Engine<P, C, S> {
     driver: GateDriver,
     now: Ticks,
     cmd: Command,
+    /// The scheme's gates for `cmd.pattern` with the PWM output off and on (derived from
+    /// `cmd`, rebuilt when its pattern changes): a PWM edge picks one.
+    masks: [GateMask; 2],
+    /// The next PWM edge after `now` under `cmd.duty`, once known (derived: act, which
+    /// changes both, sets it). Diode and sensing stops leave both, so their steps reuse it.
+    pwm_edge: Option<Ticks>,
+    /// What the plant is told to watch: `cmd`'s channels and reads, and the controller's
+    /// clock as of its last tick (derived; each step sets the horizon).
+    watch: Watch,
     pwm_on: bool,
     wake: Ticks,
     sample_period: Ticks,
@@ -89,6 +98,9 @@ impl<P: Plant, C: Controller, S: PwmScheme> Engine<P, C, S> {
     /// Assembles an engine at t = 0 with the bridge off; the controller first runs at t = 0.
     pub fn new(plant: P, controller: C, scheme: S, carrier: Carrier, dead_time: Ticks) -> Self {
         Engine {
+            masks: Self::masks_of(&scheme, &Command::OFF.pattern),
+            pwm_edge: None,
+            watch: Self::watch_of(&Command::OFF, controller.clock()),
             plant,
             controller,
             scheme,
@@ -119,6 +131,9 @@ impl<P: Plant, C: Controller, S: PwmScheme> Engine<P, C, S> {
             driver: self.driver.clone(),
             now: self.now,
             cmd: self.cmd,
+            masks: self.masks,
+            pwm_edge: self.pwm_edge,
+            watch: self.watch,
             pwm_on: self.pwm_on,
             wake: self.wake,
             sample_period: self.sample_period,
@@ -176,10 +191,7 @@ impl<P: Plant, C: Controller, S: PwmScheme> Engine<P, C, S> {
         if self.now >= end {
             return Ok(StopReason::End);
         }
-        let pwm_edge = self
-            .carrier
-            .next_edge(self.now, self.cmd.duty)
-            .unwrap_or(Ticks::NEVER);
+        let pwm_edge = self.next_pwm_edge();
         let release = self.driver.next_release();
         let sample = if self.sample_period == Ticks::NEVER {
             Ticks::NEVER
@@ -188,15 +200,13 @@ impl<P: Plant, C: Controller, S: PwmScheme> Engine<P, C, S> {
         };
         let target = end.min(pwm_edge).min(self.wake).min(release).min(sample);
         let watch = Watch {
-            channels: self.cmd.watch,
-            reads: self.cmd.reads,
-            clock: self.controller.clock(),
             horizon: pwm_edge.min(release).max(target),
+            ..self.watch
         };
         match self.plant.advance(target, watch) {
             PlantStop::Diode => Ok(StopReason::Diode),
             PlantStop::Sensing(at) => {
-                let edge = at.next_edge(self.controller.clock());
+                let edge = at.next_edge(self.watch.clock);
                 // A change the controller already sampled (it ran at or after that edge, e.g.
                 // a channel it just started watching) must not clock it twice.
                 if self.last_tick.is_none_or(|t| edge > t) {
@@ -222,6 +232,16 @@ impl<P: Plant, C: Controller, S: PwmScheme> Engine<P, C, S> {
                 })
             }
         }
+    }
+
+    /// The next PWM edge after now ([`Ticks::NEVER`] at 0 % and 100 %), computed once per
+    /// engine instant (by act, or here after a restore).
+    fn next_pwm_edge(&mut self) -> Ticks {
+        *self.pwm_edge.get_or_insert_with(|| {
+            self.carrier
+                .next_edge(self.now, self.cmd.duty)
+                .unwrap_or(Ticks::NEVER)
+        })
     }
 
     /// Steps until `end`, calling `on_step` after every stop.
@@ -256,25 +276,55 @@ impl<P: Plant, C: Controller, S: PwmScheme> Engine<P, C, S> {
         })
     }
 
+    /// The gates `scheme` gives `pattern` with the PWM output off and on.
+    fn masks_of(scheme: &S, pattern: &Pattern) -> [GateMask; 2] {
+        [false, true].map(|on| scheme.gates(pattern, on).into())
+    }
+
+    /// What the plant watches under `cmd` with the controller's `clock` (no horizon yet).
+    fn watch_of(cmd: &Command, clock: Ticks) -> Watch {
+        Watch {
+            channels: cmd.watch,
+            reads: cmd.reads,
+            clock,
+            horizon: Ticks::NEVER,
+        }
+    }
+
+    /// Puts `cmd` in force, with its gates when its pattern differs, and its watch.
+    fn set_command(&mut self, cmd: Command) {
+        if cmd.pattern != self.cmd.pattern {
+            self.masks = Self::masks_of(&self.scheme, &cmd.pattern);
+        }
+        self.watch.channels = cmd.watch;
+        self.watch.reads = cmd.reads;
+        self.cmd = cmd;
+    }
+
     /// Everything due at instant `t`: controller tick, PWM state, gate-driver releases.
     fn act(&mut self, t: Ticks, tick: bool, released: bool) -> Result<(), EngineError> {
+        // A new instant, and perhaps a new duty.
+        self.pwm_edge = None;
         if tick {
             self.last_tick = Some(t);
             let sensed = self.plant.sensed(t);
-            self.cmd = self.controller.tick(t, &sensed);
+            let cmd = self.controller.tick(t, &sensed);
+            self.watch.clock = self.controller.clock();
+            self.set_command(cmd);
             if let Err(e) = Self::check_reads(t, &sensed) {
                 // Its command rests on a value it should not have read: none is applied.
-                self.cmd = Command::OFF;
+                self.set_command(Command::OFF);
                 return Err(e);
             }
             if let Some(message) = self.controller.fault() {
-                self.cmd = Command::OFF;
+                let message = message.to_string();
+                self.set_command(Command::OFF);
                 return Err(EngineError::ControllerFault {
                     time_s: t.seconds(),
-                    message: message.to_string(),
+                    message,
                 });
             }
-            let clock = self.controller.clock();
+            let clock = self.watch.clock;
             let asked = self.cmd.wake_at.max(Ticks(t.0 + 1));
             self.wake = if self.cmd.wake_at == Ticks::NEVER {
                 Ticks::NEVER
@@ -282,9 +332,11 @@ impl<P: Plant, C: Controller, S: PwmScheme> Engine<P, C, S> {
                 asked.next_edge(clock)
             };
         }
-        self.pwm_on = self.carrier.is_on(t, self.cmd.duty);
-        let before = self.driver.effective();
-        let commanded = self.scheme.gates(&self.cmd.pattern, self.pwm_on);
+        let (on, edge) = self.carrier.on_and_next_edge(t, self.cmd.duty);
+        self.pwm_on = on;
+        self.pwm_edge = Some(edge.unwrap_or(Ticks::NEVER));
+        let before = self.driver.effective_mask();
+        let commanded = self.masks[usize::from(self.pwm_on)];
         self.driver
             .command(t, commanded)
             .map_err(|source| EngineError::ShootThrough {
@@ -294,9 +346,9 @@ impl<P: Plant, C: Controller, S: PwmScheme> Engine<P, C, S> {
         if released {
             self.driver.release(t);
         }
-        let after = self.driver.effective();
+        let after = self.driver.effective_mask();
         if after != before {
-            self.plant.set_gates(&after);
+            self.plant.set_gates(&after.into());
         }
         Ok(())
     }
@@ -304,7 +356,7 @@ impl<P: Plant, C: Controller, S: PwmScheme> Engine<P, C, S> {
 
 /// The engine's clocks, command and gate driver, then the plant's and the controller's
 /// state; the scheme, carrier, dead time and sample period are parameters.
-impl<P: Plant + Persist, C: Controller + Persist, S> Persist for Engine<P, C, S> {
+impl<P: Plant + Persist, C: Controller + Persist, S: PwmScheme> Persist for Engine<P, C, S> {
     fn save(&self, w: &mut Writer) {
         self.driver.save(w);
         self.now.save(w);
@@ -317,6 +369,19 @@ impl<P: Plant + Persist, C: Controller + Persist, S> Persist for Engine<P, C, S>
         self.controller.save(w);
     }
     fn restore(&mut self, r: &mut Reader) -> Result<(), String> {
+        let restored = self.restore_saved(r);
+        // What derives from the command and the controller follows whatever was restored,
+        // also when a later field failed.
+        self.masks = Self::masks_of(&self.scheme, &self.cmd.pattern);
+        self.pwm_edge = None;
+        self.watch = Self::watch_of(&self.cmd, self.controller.clock());
+        restored
+    }
+}
+
+impl<P: Plant + Persist, C: Controller + Persist, S: PwmScheme> Engine<P, C, S> {
+    /// [`Persist::restore`] of the saved fields, in the order saved.
+    fn restore_saved(&mut self, r: &mut Reader) -> Result<(), String> {
         r.field("driver", &mut self.driver)?;
         r.field("now", &mut self.now)?;
         r.field("cmd", &mut self.cmd)?;

@@ -4,15 +4,15 @@
 //! switch that was just turned off has time to stop conducting. During that gap the leg's
 //! current flows through a diode, which is exactly the effect dead time has on a real bridge.
 
-use crate::bridge::{Gates, ShootThrough};
+use crate::bridge::{GateMask, Gates, ShootThrough};
 use crate::time::Ticks;
 
 /// Dead-time gate driver for the six switches.
 #[derive(Clone, Debug)]
 pub struct GateDriver {
     dead_time: Ticks,
-    commanded: Gates,
-    effective: Gates,
+    commanded: GateMask,
+    effective: GateMask,
     /// Turn-on instants still waiting out the dead time, in order Tr1..Tr6.
     pending_on: [Ticks; 6],
 }
@@ -22,14 +22,19 @@ impl GateDriver {
     pub fn new(dead_time: Ticks) -> Self {
         GateDriver {
             dead_time,
-            commanded: Gates::OFF,
-            effective: Gates::OFF,
+            commanded: GateMask::OFF,
+            effective: GateMask::OFF,
             pending_on: [Ticks::NEVER; 6],
         }
     }
 
     /// The gates the bridge actually sees.
     pub fn effective(&self) -> Gates {
+        self.effective.into()
+    }
+
+    /// [`GateDriver::effective`] as a mask.
+    pub fn effective_mask(&self) -> GateMask {
         self.effective
     }
 
@@ -39,8 +44,7 @@ impl GateDriver {
     }
 
     /// Takes a new command at `now`; refuses a shoot-through command.
-    #[allow(clippy::needless_range_loop)] // three arrays indexed together
-    pub fn command(&mut self, now: Ticks, gates: Gates) -> Result<(), ShootThrough> {
+    pub fn command(&mut self, now: Ticks, gates: GateMask) -> Result<(), ShootThrough> {
         gates.validate()?;
         self.commanded = gates;
         if self.dead_time == Ticks::ZERO {
@@ -49,34 +53,30 @@ impl GateDriver {
             self.effective = gates;
             return Ok(());
         }
-        let cmd = flatten(&gates);
-        let mut eff = flatten(&self.effective);
-
-        for k in 0..6 {
-            if !cmd[k] {
-                eff[k] = false;
-                self.pending_on[k] = Ticks::NEVER;
-            } else if !eff[k] && self.pending_on[k] == Ticks::NEVER {
-                self.pending_on[k] = now + self.dead_time;
+        let mut eff = self.effective;
+        for (k, pending) in self.pending_on.iter_mut().enumerate() {
+            if !gates.is_on(k) {
+                eff = eff.with(k, false);
+                *pending = Ticks::NEVER;
+            } else if !eff.is_on(k) && *pending == Ticks::NEVER {
+                *pending = now + self.dead_time;
             }
         }
-        self.effective = unflatten(eff);
+        self.effective = eff;
         self.release(now);
         Ok(())
     }
 
     /// Applies every turn-on whose dead time has elapsed by `now`; true if anything changed.
     pub fn release(&mut self, now: Ticks) -> bool {
-        let mut eff = flatten(&self.effective);
         let mut changed = false;
-        for (e, pending) in eff.iter_mut().zip(self.pending_on.iter_mut()) {
+        for (k, pending) in self.pending_on.iter_mut().enumerate() {
             if *pending <= now {
-                *e = true;
+                self.effective = self.effective.with(k, true);
                 *pending = Ticks::NEVER;
                 changed = true;
             }
         }
-        self.effective = unflatten(eff);
         changed
     }
 
@@ -114,17 +114,6 @@ impl GateDriver {
     }
 }
 
-fn flatten(g: &Gates) -> [bool; 6] {
-    [g.high.u, g.low.u, g.high.v, g.low.v, g.high.w, g.low.w]
-}
-
-fn unflatten(f: [bool; 6]) -> Gates {
-    let mut g = Gates::OFF;
-    (g.high.u, g.low.u, g.high.v, g.low.v, g.high.w, g.low.w) =
-        (f[0], f[1], f[2], f[3], f[4], f[5]);
-    g
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -134,7 +123,7 @@ mod tests {
         let mut d = GateDriver::new(Ticks(10));
         let mut g = Gates::OFF;
         g.high.u = true;
-        d.command(Ticks(0), g).unwrap();
+        d.command(Ticks(0), g.into()).unwrap();
         assert!(!d.effective().high.u);
         assert_eq!(d.next_release(), Ticks(10));
         assert!(d.release(Ticks(10)));
@@ -142,7 +131,7 @@ mod tests {
         // complementary switch-over: high off now, low on after the dead time
         let mut g2 = Gates::OFF;
         g2.low.u = true;
-        d.command(Ticks(20), g2).unwrap();
+        d.command(Ticks(20), g2.into()).unwrap();
         assert!(!d.effective().high.u && !d.effective().low.u);
         d.release(Ticks(29));
         assert!(!d.effective().low.u);
@@ -155,7 +144,7 @@ mod tests {
         let mut d = GateDriver::new(Ticks(0));
         let mut g = Gates::OFF;
         g.low.w = true;
-        d.command(Ticks(5), g).unwrap();
+        d.command(Ticks(5), g.into()).unwrap();
         assert_eq!(d.effective(), g);
         assert_eq!(d.next_release(), Ticks::NEVER);
     }

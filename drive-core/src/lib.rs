@@ -14,7 +14,7 @@ pub mod state;
 pub mod time;
 
 pub use abc::{Abc, Phase};
-pub use bridge::{Gates, LegState, Pattern, SIX_STEP_120, ShootThrough, floating_phase};
+pub use bridge::{GateMask, Gates, LegState, Pattern, SIX_STEP_120, ShootThrough, floating_phase};
 pub use control::{Command, Controller, Hold, OpenLoopSixStep, Sensed};
 pub use engine::{Engine, EngineError, StopReason};
 pub use error::ParamError;

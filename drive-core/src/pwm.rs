@@ -50,20 +50,25 @@ impl Carrier {
 
     /// Whether the PWM output is on during the tick starting at `t`.
     pub fn is_on(&self, t: Ticks, cv: DutyCounts) -> bool {
-        let cv = cv.min(self.top) as u64;
-        let p = t.0 % self.period().0;
-        p < cv || p >= self.period().0 - cv
+        self.on_and_next_edge(t, cv).0
     }
 
     /// The first instant `> t` at which the output changes, or `None` at 0 % and 100 %.
     pub fn next_edge(&self, t: Ticks, cv: DutyCounts) -> Option<Ticks> {
+        self.on_and_next_edge(t, cv).1
+    }
+
+    /// [`Carrier::is_on`] and [`Carrier::next_edge`] from one carrier phase: the engine
+    /// asks both at every PWM edge and controller tick.
+    pub fn on_and_next_edge(&self, t: Ticks, cv: DutyCounts) -> (bool, Option<Ticks>) {
         let cv = cv.min(self.top) as u64;
         let n = self.period().0;
-        if cv == 0 || cv == self.top as u64 {
-            return None;
-        }
-        let base = t.0 - t.0 % n;
         let p = t.0 % n;
+        let on = p < cv || p >= n - cv;
+        if cv == 0 || cv == self.top as u64 {
+            return (on, None);
+        }
+        let base = t.0 - p;
         let next = if p < cv {
             base + cv
         } else if p < n - cv {
@@ -71,7 +76,7 @@ impl Carrier {
         } else {
             base + n + cv
         };
-        Some(Ticks(next))
+        (on, Some(Ticks(next)))
     }
 }
 

@@ -9,7 +9,7 @@
 //! `VecDeque` impl), so a state's size does not grow with the steps taken.
 
 use crate::abc::{Abc, Phase};
-use crate::bridge::{Gates, LegState};
+use crate::bridge::{GateMask, Gates, LegState};
 use crate::control::Command;
 use crate::time::Ticks;
 use std::cell::Cell;
@@ -378,6 +378,19 @@ impl<T: Persist> Persist for Abc<T> {
 persist_enum!(Phase { U, V, W });
 persist_enum!(LegState { High, Low, Float });
 persist_fields!(Gates { high, low });
+
+/// As the [`Gates`] it packs: the layout does not depend on the working form.
+impl Persist for GateMask {
+    fn save(&self, w: &mut Writer) {
+        Gates::from(*self).save(w);
+    }
+    fn restore(&mut self, r: &mut Reader) -> Result<(), String> {
+        let mut g = Gates::OFF;
+        g.restore(r)?;
+        *self = g.into();
+        Ok(())
+    }
+}
 persist_fields!(Command {
     pattern,
     duty,

@@ -50,6 +50,27 @@ impl DigitalFilter {
         }
     }
 
+    /// [`DigitalFilter::shift`] `n` times (`n` ≤ the sample count) with the same input `z`,
+    /// at once: the register only fills further with `z`, so once all `z` it stays so, and
+    /// it never reaches the opposite state; the latch sees only where it ends.
+    fn shift_held(&mut self, z: bool, n: u64) {
+        if n == 0 {
+            return;
+        }
+        // n ≤ 64; shifts by 64 are spelled out (a shift by the width is no shift).
+        let (kept, filled) = if n >= 64 {
+            (0, u64::MAX)
+        } else {
+            (self.reg << n, (1u64 << n) - 1)
+        };
+        self.reg = (kept | if z { filled } else { 0 }) & self.mask();
+        if self.reg == self.mask() {
+            self.out = true;
+        } else if self.reg == 0 {
+            self.out = false;
+        }
+    }
+
     /// Clocks the filter at edge `now` with input `z`. Between the previous call and `now`
     /// the input held its previous value, so the edges in between shift that value in.
     pub fn clock_at(&mut self, now: Ticks, z: bool) -> bool {
@@ -60,9 +81,7 @@ impl DigitalFilter {
         };
         if edges > 0 {
             let held = (edges - 1).min(u64::from(self.samples));
-            for _ in 0..held {
-                self.shift(self.last_in);
-            }
+            self.shift_held(self.last_in, held);
             self.shift(z);
             self.last_edge = Some(now);
         }
@@ -223,6 +242,34 @@ mod tests {
                     sparse.iter().any(|s| s.0 == k),
                     "change at edge {k} not visited"
                 );
+            }
+        }
+    }
+
+    #[test]
+    fn held_shifts_at_once_equal_shifts_one_at_a_time() {
+        for samples in [1u32, 2, 3, 5, 63, 64] {
+            let f = DigitalFilter::new(samples, C);
+            let regs = [0, 1, 0b10, 0b101, 0b110, f.mask(), f.mask() - 1, f.mask() >> 1];
+            for reg in regs {
+                for out in [false, true] {
+                    for z in [false, true] {
+                        for n in 0..=u64::from(samples) {
+                            let start = DigitalFilter { reg, out, ..f.clone() };
+                            let mut once = start.clone();
+                            once.shift_held(z, n);
+                            let mut each = start;
+                            for _ in 0..n {
+                                each.shift(z);
+                            }
+                            assert_eq!(
+                                (once.reg, once.out),
+                                (each.reg, each.out),
+                                "samples {samples} reg {reg:b} out {out} z {z} n {n}"
+                            );
+                        }
+                    }
+                }
             }
         }
     }

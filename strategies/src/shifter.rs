@@ -74,6 +74,8 @@ pub struct PhaseShifter {
     table: Table,
     /// `table.post_fraction()`, kept since the clock asks at every edge (it rounds a float).
     post: (u64, u64),
+    /// `table.sectors()`, kept since the shifter reads its sector several times an edge.
+    sectors: &'static [Sector; 6],
     blank: Ticks,
     sector: usize,
     in_pre: bool,
@@ -104,6 +106,7 @@ impl PhaseShifter {
         PhaseShifter {
             table,
             post: table.post_fraction(),
+            sectors: table.sectors(),
             blank,
             sector: 0,
             in_pre: true,
@@ -172,6 +175,7 @@ impl PhaseShifter {
     pub fn set_table(&mut self, table: Table) {
         self.table = table;
         self.post = table.post_fraction();
+        self.sectors = table.sectors();
     }
 
     /// Starts closed-loop operation at `now` in the pre part of `sector`; t_60 is assumed
@@ -269,7 +273,7 @@ impl PhaseShifter {
 
     /// The sector in force.
     pub fn sector(&self) -> Sector {
-        self.table.sector(self.sector)
+        self.sectors[self.sector]
     }
 
     /// Sector index 0..5.
@@ -300,7 +304,7 @@ impl PhaseShifter {
         if self.in_pre {
             self.sector().sensed
         } else {
-            self.table.sector(self.sector + 5).sensed
+            self.sectors[(self.sector + 5) % 6].sensed
         }
     }
 
@@ -318,7 +322,7 @@ impl PhaseShifter {
             if !self.post_may_be_empty() {
                 return r;
             }
-            (self.table.sector(self.sector + 1).sensed, Ticks::ZERO)
+            (self.sectors[(self.sector + 1) % 6].sensed, Ticks::ZERO)
         } else {
             (self.sector().sensed, self.post_end)
         };
@@ -383,8 +387,8 @@ impl PhaseShifter {
     }
 }
 
-// Everything but the blanking time, a parameter, and the post fraction, derived from the
-// table.
+// Everything but the blanking time, a parameter, and the post fraction and sectors, derived
+// from the table.
 drive_core::persist_fields!(PhaseShifter {
     table,
     sector,
@@ -405,9 +409,14 @@ drive_core::persist_fields!(PhaseShifter {
     integ_from
 } then rederive);
 
-/// Restores what derives from the restored fields: the post fraction of the table.
+/// Checks the sector index (read from it directly) and restores what derives from the
+/// restored fields: the post fraction and the sectors of the table.
 fn rederive(s: &mut PhaseShifter) -> Result<(), String> {
+    if s.sector >= 6 {
+        return Err(format!("sector = {} (rule: 0..=5)", s.sector));
+    }
     s.post = s.table.post_fraction();
+    s.sectors = s.table.sectors();
     Ok(())
 }
 

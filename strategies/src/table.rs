@@ -164,9 +164,14 @@ const fn sector_of(post: Pattern, pre: Pattern, states: (u8, u8)) -> Sector {
 impl Table {
     /// Sector `k` (0..5, starting at θe = 60°·k; taken modulo 6).
     pub fn sector(&self, k: usize) -> Sector {
+        self.sectors()[k % 6]
+    }
+
+    /// The six sectors, from θe = 0.
+    pub fn sectors(&self) -> &'static [Sector; 6] {
         match self {
-            Table::SixStep => SIX_STEP_SECTORS[k % 6],
-            Table::TwelveStep { .. } => TWELVE_STEP_SECTORS[k % 6],
+            Table::SixStep => &SIX_STEP_SECTORS,
+            Table::TwelveStep { .. } => &TWELVE_STEP_SECTORS,
         }
     }
 
