@@ -250,12 +250,25 @@ mod tests {
     fn held_shifts_at_once_equal_shifts_one_at_a_time() {
         for samples in [1u32, 2, 3, 5, 63, 64] {
             let f = DigitalFilter::new(samples, C);
-            let regs = [0, 1, 0b10, 0b101, 0b110, f.mask(), f.mask() - 1, f.mask() >> 1];
+            let regs = [
+                0,
+                1,
+                0b10,
+                0b101,
+                0b110,
+                f.mask(),
+                f.mask() - 1,
+                f.mask() >> 1,
+            ];
             for reg in regs {
                 for out in [false, true] {
                     for z in [false, true] {
                         for n in 0..=u64::from(samples) {
-                            let start = DigitalFilter { reg, out, ..f.clone() };
+                            let start = DigitalFilter {
+                                reg,
+                                out,
+                                ..f.clone()
+                            };
                             let mut once = start.clone();
                             once.shift_held(z, n);
                             let mut each = start;
