@@ -84,7 +84,8 @@ impl Carrier {
 ///
 /// Implementations never add dead time; the gate driver does that.
 pub trait PwmScheme {
-    /// Gates for `pattern` while the PWM output is `on` (true) or off (false).
+    /// Gates for `pattern` while the PWM output is `on` (true) or off (false). A function
+    /// of these two alone: the engine asks once per pattern and keeps both answers.
     fn gates(&self, pattern: &Pattern, on: bool) -> Gates;
 }
 
