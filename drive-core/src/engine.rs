@@ -82,10 +82,12 @@ pub struct Engine<P, C, S> {
     /// `cmd`, rebuilt when its pattern changes): a PWM edge picks one.
     masks: [GateMask; 2],
     /// The next PWM edge after `now` under `cmd.duty`, once known (derived: act, which
-    /// changes both, sets it). Diode and sensing stops leave both, so their steps reuse it.
+    /// changes both, sets it; `None` after a restore or a refused command, until the next
+    /// step computes it). Diode and sensing stops leave both, so their steps reuse it.
     pwm_edge: Option<Ticks>,
     /// What the plant is told to watch: `cmd`'s channels and reads, and the controller's
-    /// clock as of its last tick (derived; each step sets the horizon).
+    /// clock as of its last tick (derived; each step sets the horizon). A controller
+    /// replaced or changed through the public field takes effect at its next tick.
     watch: Watch,
     pwm_on: bool,
     wake: Ticks,

@@ -57,7 +57,7 @@ impl DigitalFilter {
         if n == 0 {
             return;
         }
-        // n ≤ 64; shifts by 64 are spelled out (a shift by the width is no shift).
+        // n ≤ 64; shifts by 64 are spelled out (a shift by the width overflows).
         let (kept, filled) = if n >= 64 {
             (0, u64::MAX)
         } else {
