@@ -142,7 +142,7 @@ impl Powers {
 
     /// Whether the losses are made (see [`Circuit::with_losses`]): the mark's exact bits,
     /// so a made loss gone NaN (whose sign bit may be set) still counts as made.
-    pub fn has_losses(&self) -> bool {
+    pub(crate) fn has_losses(&self) -> bool {
         self.copper.to_bits() != Self::LOSSES_LATER.copper.to_bits()
     }
 }
