@@ -115,6 +115,16 @@ impl CurrentSense {
         let c3 = 2.0 * (y0 - y1) + m0 + m1;
         let v = |s: f64| y0 + s * (m0 + s * (c2 + s * c3));
         let coeffs = [y0, m0 / h, c2 / (h * h), c3 / (h * h * h)];
+        let (lo, hi) = (0.0, self.max_v);
+        if let Some(c) = Self::one_side(lo, hi, (y0, m0), (y1, m1), coeffs) {
+            // What the search below finds then: no cut, one piece over [0, h].
+            let seg = CubicRc::new(0.0, self.y, c, self.tau);
+            let out = &mut self.last.0;
+            out.y_end = seg.at_decayed(h, self.decay.at(h)[0]);
+            out.seg[0] = seg;
+            out.n = 1;
+            return;
+        }
         // Monotone parts: split at the roots of v′ = m0 + 2·c2·s + 3·c3·s².
         let mut cuts = [0.0, 1.0, 1.0, 1.0];
         let mut n_cuts = 1;
@@ -142,7 +152,6 @@ impl CurrentSense {
         cuts[n_cuts] = 1.0;
         // Where each monotone part crosses a clip level: the values at the parts' ends,
         // once each; usually all inside the swing (or all below it), and no part crosses.
-        let (lo, hi) = (0.0, self.max_v);
         let ends: [f64; 4] = std::array::from_fn(|i| v(cuts[i]));
         let ends = &ends[..=n_cuts];
         let mut bounds = [0.0; 8];
@@ -212,6 +221,37 @@ impl CurrentSense {
             out.n += 1;
         }
         out.y_end = y;
+    }
+
+    /// The one input of the whole update when the amplifier's output v(s), s in [0, 1],
+    /// with ends `y0`, `y1` \[V\] and slopes `m0`, `m1` [V per update] provably stays on one
+    /// side of each clip level `lo` < `hi` \[V\]: the clip level, or the cubic (`coeffs`).
+    /// The cubic lies in the hull of its Bernstein points y0, y0 + m0/3, y1 − m1/3, y1;
+    /// evaluated from rounded coefficients it errs by a few ulps of |y0| + |y1| + |m0| +
+    /// |m1|, so a hull clear of a level by 1e-12 of that sum leaves every value
+    /// `set_pieces`'s search evaluates on the same side: it would find no crossing and
+    /// take this input. Otherwise (a hull at or across a level, e.g. a freewheeling shunt
+    /// current at zero, or NaN) `None`.
+    #[inline]
+    fn one_side(
+        lo: f64,
+        hi: f64,
+        (y0, m0): (f64, f64),
+        (y1, m1): (f64, f64),
+        coeffs: [f64; 4],
+    ) -> Option<[f64; 4]> {
+        let (b1, b2) = (y0 + m0 / 3.0, y1 - m1 / 3.0);
+        let slack = 1e-12 * (y0.abs() + y1.abs() + m0.abs() + m1.abs());
+        let (min, max) = (y0.min(y1).min(b1.min(b2)), y0.max(y1).max(b1.max(b2)));
+        if max < lo - slack {
+            Some([lo, 0.0, 0.0, 0.0])
+        } else if min > lo + slack && max < hi - slack {
+            Some(coeffs)
+        } else if min > hi + slack {
+            Some([hi, 0.0, 0.0, 0.0])
+        } else {
+            None
+        }
     }
 
     /// Advances over [t0, t1] with the shunt current and its slope (`i` \[A\], `di` [A/s]) at
