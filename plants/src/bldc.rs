@@ -960,10 +960,10 @@ impl BldcPlant {
             &i,
             &e,
             (at_clamp, keep_open),
-            |m| {
+            |m, out| {
                 let k = circuit::state_index(m);
                 let plan = &self.forms[k].get_or_init(|| form_at(&self.circuit, k)).2;
-                self.circuit.solve_planned(plan, m, &i, &e)
+                self.circuit.solve_planned_into(plan, m, &i, &e, out)
             },
             &mut self.start,
         );

@@ -316,6 +316,20 @@ impl Circuit {
         self.solve_planned_with::<true>(plan, modes, i, e)
     }
 
+    /// [`Circuit::solve_planned`] into `out` (a re-resolve's, the plant's start): written
+    /// there in place rather than returned and copied.
+    #[inline(never)]
+    pub(crate) fn solve_planned_into(
+        &self,
+        plan: &Plan,
+        modes: &Abc<Conduction>,
+        i: &Abc<f64>,
+        e: &Abc<f64>,
+        out: &mut Solution,
+    ) {
+        *out = self.solve_planned_with::<true>(plan, modes, i, e);
+    }
+
     /// [`Circuit::solve_planned`] but, with two or more legs conducting, the losses
     /// (copper, switch, diode, shunt) left to [`Circuit::with_losses`]
     /// ([`Powers::has_losses`] false): they follow from the currents alone, and most
@@ -528,24 +542,25 @@ impl Circuit {
             i,
             e,
             (at_clamp, keep_open),
-            |m| self.solve(m, i, e),
+            |m, out| *out = self.solve(m, i, e),
             &mut sol,
         );
         (modes, sol)
     }
 
     /// [`Circuit::resolve`] with the network solved in each conduction state tried by
-    /// `solve`, which must give [`Circuit::solve`]'s solution for currents `i` and back-EMFs
-    /// `e` (a caller holding [`Plan`]s passes [`Circuit::solve_planned`]); `(at_clamp,
-    /// keep_open)` as there. The resolved state's solution is written to `sol` (the
-    /// caller's own, e.g. a plant's start: a returned solution was moved twice more).
+    /// `solve`, which must write [`Circuit::solve`]'s solution for currents `i` and
+    /// back-EMFs `e` to its second argument (a caller holding [`Plan`]s uses
+    /// [`Circuit::solve_planned`]); `(at_clamp, keep_open)` as there. The resolved state's
+    /// solution is written to `sol` (the caller's own, e.g. a plant's start: a returned
+    /// solution was moved twice more).
     pub fn resolve_with(
         &self,
         gates: &Gates,
         i: &Abc<f64>,
         e: &Abc<f64>,
         (at_clamp, keep_open): (Option<Phase>, Option<Phase>),
-        solve: impl Fn(&Abc<Conduction>) -> Solution,
+        solve: impl Fn(&Abc<Conduction>, &mut Solution),
         sol: &mut Solution,
     ) -> Abc<Conduction> {
         let mut modes = Abc::from_fn(|p| {
@@ -561,7 +576,11 @@ impl Circuit {
                 Conduction::Open
             }
         });
-        *sol = solve(&modes);
+        solve(&modes, sol);
+        // Only an open leg may start conducting: with none (most re-resolves), done.
+        if Phase::ALL.into_iter().all(|p| modes.get(p).conducts()) {
+            return modes;
+        }
         for round in 0..3 {
             let mut worst: Option<(Phase, f64)> = None;
             for p in Phase::ALL {
@@ -597,7 +616,8 @@ impl Circuit {
             if conducting < 2 && !rectifier_pair(e, &modes, keep_open, &mut trial) {
                 break;
             }
-            let s = solve(&trial);
+            let mut s = Solution::default();
+            solve(&trial, &mut s);
             let consistent = Phase::ALL
                 .iter()
                 .all(|&q| match (modes.get(q), trial.get(q)) {
