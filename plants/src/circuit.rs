@@ -537,32 +537,33 @@ impl Circuit {
         keep_open: Option<Phase>,
     ) -> (Abc<Conduction>, Solution) {
         let mut sol = Solution::default();
-        let modes = self.resolve_with(
+        let (modes, _) = self.resolve_with(
             gates,
             i,
             e,
             (at_clamp, keep_open),
-            |m, out| *out = self.solve(m, i, e),
+            |_, m, out| *out = self.solve(m, i, e),
             &mut sol,
         );
         (modes, sol)
     }
 
     /// [`Circuit::resolve`] with the network solved in each conduction state tried by
-    /// `solve`, which must write [`Circuit::solve`]'s solution for currents `i` and
-    /// back-EMFs `e` to its second argument (a caller holding [`Plan`]s uses
-    /// [`Circuit::solve_planned`]); `(at_clamp, keep_open)` as there. The resolved state's
-    /// solution is written to `sol` (the caller's own, e.g. a plant's start: a returned
-    /// solution was moved twice more).
+    /// `solve`, which is given the state's [`state_index`] and the state and must write
+    /// [`Circuit::solve`]'s solution for currents `i` and back-EMFs `e` to its third
+    /// argument (a caller holding [`Plan`]s by index uses [`Circuit::solve_planned`]);
+    /// `(at_clamp, keep_open)` as there. The resolved state's solution is written to `sol`
+    /// (the caller's own, e.g. a plant's start: a returned solution was moved twice more);
+    /// the state is returned with its index.
     pub fn resolve_with(
         &self,
         gates: &Gates,
         i: &Abc<f64>,
         e: &Abc<f64>,
         (at_clamp, keep_open): (Option<Phase>, Option<Phase>),
-        solve: impl Fn(&Abc<Conduction>, &mut Solution),
+        solve: impl Fn(usize, &Abc<Conduction>, &mut Solution),
         sol: &mut Solution,
-    ) -> Abc<Conduction> {
+    ) -> (Abc<Conduction>, usize) {
         let mut modes = Abc::from_fn(|p| {
             if gates.high.get(p) {
                 Conduction::SwitchHigh
@@ -576,10 +577,11 @@ impl Circuit {
                 Conduction::Open
             }
         });
-        solve(&modes, sol);
+        let mut k = state_index(&modes);
+        solve(k, &modes, sol);
         // Only an open leg may start conducting: with none (most re-resolves), done.
         if Phase::ALL.into_iter().all(|p| modes.get(p).conducts()) {
-            return modes;
+            return (modes, k);
         }
         for round in 0..3 {
             let mut worst: Option<(Phase, f64)> = None;
@@ -617,7 +619,8 @@ impl Circuit {
                 break;
             }
             let mut s = Solution::default();
-            solve(&trial, &mut s);
+            let k_trial = state_index(&trial);
+            solve(k_trial, &trial, &mut s);
             let consistent = Phase::ALL
                 .iter()
                 .all(|&q| match (modes.get(q), trial.get(q)) {
@@ -629,9 +632,10 @@ impl Circuit {
                 break;
             }
             modes = trial;
+            k = k_trial;
             *sol = s;
         }
-        modes
+        (modes, k)
     }
 }
 
