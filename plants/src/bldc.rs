@@ -955,19 +955,17 @@ impl BldcPlant {
         self.fsal = false;
         let (_, e) = self.emf_of(&self.x);
         let i = Self::currents(&self.x);
-        self.modes = self.circuit.resolve_with(
+        (self.modes, self.lin) = self.circuit.resolve_with(
             &self.gates,
             &i,
             &e,
             (at_clamp, keep_open),
-            |m| {
-                let k = circuit::state_index(m);
+            |k, m, out| {
                 let plan = &self.forms[k].get_or_init(|| form_at(&self.circuit, k)).2;
-                self.circuit.solve_planned(plan, m, &i, &e)
+                self.circuit.solve_planned_into(plan, m, &i, &e, out)
             },
             &mut self.start,
         );
-        self.lin = circuit::state_index(&self.modes);
     }
 
     /// When the first watched change not yet reported becomes visible.

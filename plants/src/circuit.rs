@@ -316,6 +316,20 @@ impl Circuit {
         self.solve_planned_with::<true>(plan, modes, i, e)
     }
 
+    /// [`Circuit::solve_planned`] into `out` (a re-resolve's, the plant's start): written
+    /// there in place rather than returned and copied.
+    #[inline(never)]
+    pub(crate) fn solve_planned_into(
+        &self,
+        plan: &Plan,
+        modes: &Abc<Conduction>,
+        i: &Abc<f64>,
+        e: &Abc<f64>,
+        out: &mut Solution,
+    ) {
+        *out = self.solve_planned_with::<true>(plan, modes, i, e);
+    }
+
     /// [`Circuit::solve_planned`] but, with two or more legs conducting, the losses
     /// (copper, switch, diode, shunt) left to [`Circuit::with_losses`]
     /// ([`Powers::has_losses`] false): they follow from the currents alone, and most
@@ -523,31 +537,33 @@ impl Circuit {
         keep_open: Option<Phase>,
     ) -> (Abc<Conduction>, Solution) {
         let mut sol = Solution::default();
-        let modes = self.resolve_with(
+        let (modes, _) = self.resolve_with(
             gates,
             i,
             e,
             (at_clamp, keep_open),
-            |m| self.solve(m, i, e),
+            |_, m, out| *out = self.solve(m, i, e),
             &mut sol,
         );
         (modes, sol)
     }
 
     /// [`Circuit::resolve`] with the network solved in each conduction state tried by
-    /// `solve`, which must give [`Circuit::solve`]'s solution for currents `i` and back-EMFs
-    /// `e` (a caller holding [`Plan`]s passes [`Circuit::solve_planned`]); `(at_clamp,
-    /// keep_open)` as there. The resolved state's solution is written to `sol` (the
-    /// caller's own, e.g. a plant's start: a returned solution was moved twice more).
+    /// `solve`, which is given the state's [`state_index`] and the state and must write
+    /// [`Circuit::solve`]'s solution for currents `i` and back-EMFs `e` to its third
+    /// argument (a caller holding [`Plan`]s by index uses [`Circuit::solve_planned`]);
+    /// `(at_clamp, keep_open)` as there. The resolved state's solution is written to `sol`
+    /// (the caller's own, e.g. a plant's start: a returned solution was moved twice more);
+    /// the state is returned with its index.
     pub fn resolve_with(
         &self,
         gates: &Gates,
         i: &Abc<f64>,
         e: &Abc<f64>,
         (at_clamp, keep_open): (Option<Phase>, Option<Phase>),
-        solve: impl Fn(&Abc<Conduction>) -> Solution,
+        solve: impl Fn(usize, &Abc<Conduction>, &mut Solution),
         sol: &mut Solution,
-    ) -> Abc<Conduction> {
+    ) -> (Abc<Conduction>, usize) {
         let mut modes = Abc::from_fn(|p| {
             if gates.high.get(p) {
                 Conduction::SwitchHigh
@@ -561,7 +577,12 @@ impl Circuit {
                 Conduction::Open
             }
         });
-        *sol = solve(&modes);
+        let mut k = state_index(&modes);
+        solve(k, &modes, sol);
+        // Only an open leg may start conducting: with none (most re-resolves), done.
+        if Phase::ALL.into_iter().all(|p| modes.get(p).conducts()) {
+            return (modes, k);
+        }
         for round in 0..3 {
             let mut worst: Option<(Phase, f64)> = None;
             for p in Phase::ALL {
@@ -597,7 +618,9 @@ impl Circuit {
             if conducting < 2 && !rectifier_pair(e, &modes, keep_open, &mut trial) {
                 break;
             }
-            let s = solve(&trial);
+            let mut s = Solution::default();
+            let k_trial = state_index(&trial);
+            solve(k_trial, &trial, &mut s);
             let consistent = Phase::ALL
                 .iter()
                 .all(|&q| match (modes.get(q), trial.get(q)) {
@@ -609,9 +632,10 @@ impl Circuit {
                 break;
             }
             modes = trial;
+            k = k_trial;
             *sol = s;
         }
-        modes
+        (modes, k)
     }
 }
 

@@ -106,15 +106,32 @@ impl CurrentSense {
 
     /// Records as the last update's pieces the filter over [0, h] with the shunt current
     /// the cubic Hermite interpolant of currents `i0`, `i1` \[A\] and slopes `d0`, `d1`
-    /// [A/s], clipped to the amplifier's swing.
+    /// [A/s], clipped to the amplifier's swing: at once when the amplifier's output stays
+    /// clear of both clip levels (most updates), else by [`CurrentSense::search_pieces`].
     fn set_pieces(&mut self, h: f64, (i0, d0): (f64, f64), (i1, d1): (f64, f64)) {
+        let g = self.volts_per_amp;
+        let (y0, y1, m0, m1) = (g * i0, g * i1, g * d0 * h, g * d1 * h);
+        let Some(c) = Self::one_side(self.max_v, (y0, m0), (y1, m1), h) else {
+            return self.search_pieces(h, (i0, d0), (i1, d1));
+        };
+        // What the search finds then: no cut, one piece over [0, h].
+        let seg = CubicRc::new(0.0, self.y, c, self.tau);
+        let out = &mut self.last.0;
+        out.y_end = seg.at_decayed(h, self.decay.at(h)[0]);
+        out.seg[0] = seg;
+        out.n = 1;
+    }
+
+    /// [`CurrentSense::set_pieces`] by splitting the cubic into its monotone parts and
+    /// finding where each crosses a clip level.
+    fn search_pieces(&mut self, h: f64, (i0, d0): (f64, f64), (i1, d1): (f64, f64)) {
         let g = self.volts_per_amp;
         let (y0, y1, m0, m1) = (g * i0, g * i1, g * d0 * h, g * d1 * h);
         // In s = τ/h: v(s) = y0 + m0·s + c2·s² + c3·s³ [V].
         let c2 = 3.0 * (y1 - y0) - 2.0 * m0 - m1;
         let c3 = 2.0 * (y0 - y1) + m0 + m1;
         let v = |s: f64| y0 + s * (m0 + s * (c2 + s * c3));
-        let coeffs = [y0, m0 / h, c2 / (h * h), c3 / (h * h * h)];
+        let coeffs = Self::coefficients(h, (y0, m0), (y1, m1));
         // Monotone parts: split at the roots of v′ = m0 + 2·c2·s + 3·c3·s².
         let mut cuts = [0.0, 1.0, 1.0, 1.0];
         let mut n_cuts = 1;
@@ -214,6 +231,41 @@ impl CurrentSense {
         out.y_end = y;
     }
 
+    /// The amplifier's output over an update of `h` \[s\] as a cubic in τ \[V, V/s, V/s²,
+    /// V/s³\], from its ends `y0`, `y1` \[V\] and slopes `m0`, `m1` [V per update].
+    #[inline(always)]
+    fn coefficients(h: f64, (y0, m0): (f64, f64), (y1, m1): (f64, f64)) -> [f64; 4] {
+        let c2 = 3.0 * (y1 - y0) - 2.0 * m0 - m1;
+        let c3 = 2.0 * (y0 - y1) + m0 + m1;
+        [y0, m0 / h, c2 / (h * h), c3 / (h * h * h)]
+    }
+
+    /// The one input of a whole update of `h` \[s\] when the amplifier's output v(s), s in
+    /// [0, 1], with ends `y0`, `y1` \[V\] and slopes `m0`, `m1` [V per update], provably
+    /// stays on one side of each clip level 0 and `hi` \[V\]: the clip level, or the cubic.
+    /// The cubic lies in the hull of its Bernstein points y0, y0 + m0/3, y1 − m1/3, y1;
+    /// evaluated from rounded coefficients it errs by a few ulps of |y0| + |y1| + |m0| +
+    /// |m1|, so a hull clear of a level by 1e-12 of that sum leaves every value
+    /// [`CurrentSense::search_pieces`] evaluates on the same side: it would find no crossing
+    /// and take this input. Otherwise (a hull at or across a level, e.g. a freewheeling
+    /// shunt current at zero, or NaN) `None`.
+    #[inline(always)]
+    fn one_side(hi: f64, (y0, m0): (f64, f64), (y1, m1): (f64, f64), h: f64) -> Option<[f64; 4]> {
+        let lo = 0.0;
+        let (b1, b2) = (y0 + m0 / 3.0, y1 - m1 / 3.0);
+        let slack = 1e-12 * (y0.abs() + y1.abs() + m0.abs() + m1.abs());
+        let (min, max) = (y0.min(y1).min(b1.min(b2)), y0.max(y1).max(b1.max(b2)));
+        if max < lo - slack {
+            Some([lo, 0.0, 0.0, 0.0])
+        } else if min > lo + slack && max < hi - slack {
+            Some(Self::coefficients(h, (y0, m0), (y1, m1)))
+        } else if min > hi + slack {
+            Some([hi, 0.0, 0.0, 0.0])
+        } else {
+            None
+        }
+    }
+
     /// Advances over [t0, t1] with the shunt current and its slope (`i` \[A\], `di` [A/s]) at
     /// both ends, taking every ADC sample that falls in (t0, t1].
     pub fn update(&mut self, t0: f64, t1: f64, start: (f64, f64), end: (f64, f64)) {
@@ -274,6 +326,59 @@ impl CurrentSense {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn pieces_taken_at_once_equal_the_searched_ones_bit_for_bit() {
+        // Currents inside the swing, beyond it, below zero, at zero with rounding-size
+        // slopes (the freewheeling shunt), and across either level, from a fixed LCG.
+        let base = CurrentSense::new(&CurrentSenseParams::default(), 0.25, 40e-6);
+        let mut z = 0x2545_f491_4f6c_dd1d_u64;
+        let mut unit = || {
+            z = z.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1);
+            (z >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
+        };
+        let mut at_once = 0;
+        for k in 0..20_000 {
+            let h = 1e-6 + 39e-6 * unit().abs();
+            let (scale, rate) = match k % 4 {
+                0 => (0.3, 2e4),
+                1 => (0.8, 1e5),
+                2 => (1e-15, 1e-11),
+                _ => (0.05, 5e3),
+            };
+            let offset = if k % 4 == 0 { 0.25 } else { 0.0 };
+            let start = (offset + scale * unit(), rate * unit());
+            let end = (offset + scale * unit(), rate * unit());
+            let (mut a, mut b) = (base.clone(), base.clone());
+            a.y = unit();
+            b.y = a.y;
+            a.set_pieces(h, start, end);
+            b.search_pieces(h, start, end);
+            let (pa, pb) = (&a.last.0, &b.last.0);
+            assert_eq!(pa.n, pb.n, "{start:?} {end:?} {h}");
+            assert_eq!(pa.y_end.to_bits(), pb.y_end.to_bits());
+            let bits = |s: &CubicRc| {
+                [s.p[0], s.p[1], s.p[2], s.p[3], s.from, s.transient].map(f64::to_bits)
+            };
+            for (sa, sb) in pa.seg[..pa.n].iter().zip(&pb.seg[..pb.n]) {
+                assert_eq!(bits(sa), bits(sb));
+            }
+            at_once += usize::from(
+                CurrentSense::one_side(
+                    a.max_v,
+                    (a.volts_per_amp * start.0, a.volts_per_amp * start.1 * h),
+                    (a.volts_per_amp * end.0, a.volts_per_amp * end.1 * h),
+                    h,
+                )
+                .is_some(),
+            );
+        }
+        // Both paths were exercised.
+        assert!(
+            (2_000..18_000).contains(&at_once),
+            "{at_once} taken at once"
+        );
+    }
 
     #[test]
     fn spec_scaling_half_amp_is_full_scale() {
