@@ -499,9 +499,13 @@ fn angle_stats(name: &str, r: &Run, rpm: f64) {
 /// off the limit as soon as the error shrinks (pi.rs), so the overshoot must drop.
 ///
 /// How much it drops depends on where the comparator noise puts the commutations during
-/// the step: on one trajectory the ratio (with / without) is a sample of a spread (seeds
-/// 1–8 measured 0.66–0.87; any rounding-level change of the trajectory draws new samples).
-/// So the claim is over seeds: lower at every one of seeds 1–6, by 15 % on average.
+/// the step, and the runs with and without are two separate trajectories: a seed does not
+/// pair them, and any rounding-level change of the model draws them anew. Over seeds 1–48
+/// the overshoot measured 794 ± 48 rpm without and 608 ± 45 rpm with (at most 738); paired
+/// by seed, "with" was the higher in 0 of 48 seeds on one build and in 2 of 48 on another
+/// whose results differ only in the last digits (same means, same spreads). So the claim
+/// is against the population without: every run with it overshoots less than the runs
+/// without do on average (seeds 1–6), and the ratio is at most 0.85 on average.
 #[test]
 fn anti_windup_acts_only_on_the_pi_that_saturates() {
     let step = |aw: bool, speed_aw: bool, seed: u64| {
@@ -528,7 +532,7 @@ fn anti_windup_acts_only_on_the_pi_that_saturates() {
             .fold(0.0, f64::max)
             - 6000.0
     };
-    let mut ratios = Vec::new();
+    let (mut ratios, mut runs) = (Vec::new(), Vec::new());
     for seed in 1..=6 {
         let (off, both) = (step(false, false, seed), step(true, true, seed));
         for r in [&off, &both] {
@@ -548,10 +552,18 @@ fn anti_windup_acts_only_on_the_pi_that_saturates() {
             "seed {seed}: step 1500 → 6000: overshoot {p_off:.0} rpm without, {p_both:.0} rpm with the speed PI's anti-windup"
         );
         assert!(
-            p_off > 0.0 && p_both < p_off,
-            "seed {seed}: {p_off:.0} vs {p_both:.0}"
+            p_off > 0.0,
+            "seed {seed}: no overshoot without ({p_off:.0} rpm)"
         );
         ratios.push(p_both / p_off);
+        runs.push((p_off, p_both));
+    }
+    let off_mean = runs.iter().map(|r| r.0).sum::<f64>() / runs.len() as f64;
+    for (seed, (_, p_both)) in (1..).zip(&runs) {
+        assert!(
+            *p_both < off_mean,
+            "seed {seed}: {p_both:.0} rpm with, against {off_mean:.0} rpm on average without"
+        );
     }
     let mean = ratios.iter().sum::<f64>() / ratios.len() as f64;
     assert!(
