@@ -257,53 +257,6 @@ impl<'a> Response<'a> {
         }
         i
     }
-
-    /// The first and second time derivatives [A/s, A/s²] of phase `k`'s current at the
-    /// step's start, where the angle's sine and cosine are (`s`, `c`), advancing at
-    /// `omega` [rad/s]: with ps = P0 + P1·t + P2·t² and rc likewise, z″ = (ps″ − 2Ω·rc′ −
-    /// Ω²·ps)·sin φ + (rc″ + 2Ω·ps′ − Ω²·rc)·cos φ + λ²·e^{λt}·tr, at t = 0.
-    pub fn start_rates(&self, k: usize, (s, c): (f64, f64), omega: f64) -> (f64, f64) {
-        let (mut di, mut ddi) = (0.0, 0.0);
-        for j in 0..self.md.m {
-            let (p, r, l, tr) = (self.p[j], self.r[j], self.md.lambda[j], self.tr[j]);
-            let dz = (p[1] - omega * r[0]) * s + (r[1] + omega * p[0]) * c + l * tr;
-            let ddz = (2.0 * p[2] - 2.0 * omega * r[1] - omega * omega * p[0]) * s
-                + (2.0 * r[2] + 2.0 * omega * p[1] - omega * omega * r[0]) * c
-                + l * l * tr;
-            di += dz * self.md.w[j][k];
-            ddi += ddz * self.md.w[j][k];
-        }
-        (di, ddi)
-    }
-
-    /// Phase `k`'s current \[A\] and its rate [A/s] at time `t` into the step, where the
-    /// angle's sine and cosine are (`s`, `c`), advancing at `omega` [rad/s] (the forcing's
-    /// Ω), and the modes have decayed by `decays`: [`Response::currents`] and its time
-    /// derivative, for Newton's method on one current.
-    pub fn current_and_rate(
-        &self,
-        k: usize,
-        t: f64,
-        (s, c): (f64, f64),
-        omega: f64,
-        decays: [f64; 2],
-    ) -> (f64, f64) {
-        let (mut i, mut di) = (self.perp[k], 0.0);
-        for (j, d) in decays.iter().enumerate().take(self.md.m) {
-            let (p, r) = (self.p[j], self.r[j]);
-            let ps = p[0] + t * (p[1] + t * p[2]);
-            let rc = r[0] + t * (r[1] + t * r[2]);
-            let (dps, drc) = (p[1] + 2.0 * t * p[2], r[1] + 2.0 * t * r[2]);
-            let z = self.md.zc[j] + ps * s + rc * c + d * self.tr[j];
-            // d/dt of ps·sin φ + rc·cos φ + e^{λt}·tr, with dφ/dt = Ω.
-            let dz = (dps - omega * rc) * s
-                + (drc + omega * ps) * c
-                + self.md.lambda[j] * d * self.tr[j];
-            i += z * self.md.w[j][k];
-            di += dz * self.md.w[j][k];
-        }
-        (i, di)
-    }
 }
 
 #[cfg(test)]
