@@ -16,6 +16,9 @@
 //! Events located in time (Illinois regula falsi on the step's solution, to 0.1 ns): a freewheeling
 //! diode's current reaching zero (the current is then set to exactly zero and the phase
 //! floats), and an open terminal reaching a diode clamp (the diode starts conducting).
+//! A freewheeling current whose tangent reaches zero within a step is located before the
+//! step, on its modal response (Newton's method), and the step is integrated to that zero
+//! alone rather than past it.
 
 use crate::circuit::{self, Circuit, Conduction, Linearised, Plan, Powers, Solution};
 use crate::emf;
@@ -566,20 +569,10 @@ impl BldcPlant {
         let (w0, th0) = (x[OMEGA], x[THETA]);
         let kl = self.lambda * self.pp;
         let w2 = w0 + 0.5 * h * k1[OMEGA];
-        let omega_e = self.pp * w2;
         let i0 = [x[0], x[1], x[2]];
-        // The back-EMF follows the speed through the step: amplitude λr·(ωm0 + α·t +
-        // α′·t²/2), and the angle leads φ0 + Ω·t by pp·α·(t² − h·t)/2.
-        let a = k1[OMEGA];
         let sc0 = emf::sin_cos_near(th0, base);
-        let forcing = Forcing {
-            omega: omega_e,
-            amp: kl * w0,
-            slope: kl * a,
-            quad: 0.5 * kl * self.jerk(x, k1, sc0),
-            d1: -0.5 * self.pp * a * h,
-            d2: 0.5 * self.pp * a,
-        };
+        let forcing = self.forcing(x, h, k1, sc0);
+        let omega_e = forcing.omega;
         let rsp = Response::new(md, &i0, sc0, &forcing);
         let half = md.decays(0.5 * h);
         let full = [half[0] * half[0], half[1] * half[1]];
@@ -615,6 +608,24 @@ impl BldcPlant {
             x1[k] += h / 6.0 * (k1[k] + 2.0 * (r2[j] + r3[j]) + r4[j]);
         }
         x1
+    }
+
+    /// The back-EMF's forcing of a step of `h` from `x` (derivative `k1`, sin θ and cos θ
+    /// `sc0`) for the modal response: it follows the speed through the step, amplitude
+    /// λr·(ωm0 + α·t + α′·t²/2), and the angle leads φ0 + Ω·t by pp·α·(t² − h·t)/2, with
+    /// Ω the mid-step electrical speed.
+    #[inline(always)]
+    fn forcing(&self, x: &State, h: f64, k1: &State, sc0: (f64, f64)) -> Forcing {
+        let kl = self.lambda * self.pp;
+        let a = k1[OMEGA];
+        Forcing {
+            omega: self.pp * (x[OMEGA] + 0.5 * h * a),
+            amp: kl * x[OMEGA],
+            slope: kl * a,
+            quad: 0.5 * kl * self.jerk(x, k1, sc0),
+            d1: -0.5 * self.pp * a * h,
+            d2: 0.5 * self.pp * a,
+        }
     }
 
     /// dα/dt [rad/s³] at state `x` (its angle's sine and cosine given) with derivative
@@ -908,6 +919,86 @@ impl BldcPlant {
             }
         }
         first
+    }
+
+    /// A freewheeling current that reaches zero inside the step of `h` from `x0`
+    /// (derivative `f0`, angle base `base`), found before the step is integrated so that
+    /// the step is not integrated past its event: the step's length to that zero and the
+    /// phase. Only the phase whose current's tangent reaches zero first within the step is
+    /// tried (a freewheeling current's fall slows as its resistive drop fades, so the
+    /// tangent reaches zero first); an event the prediction misses is found after the step
+    /// as before.
+    #[inline(always)]
+    fn predict_diode(
+        &self,
+        x0: &State,
+        f0: &State,
+        h: f64,
+        base: (f64, f64, f64),
+    ) -> Option<(f64, Phase)> {
+        let mut first: Option<(f64, Phase)> = None;
+        for p in Phase::ALL {
+            let k = p.index();
+            let sign = match self.modes.get(p) {
+                Conduction::DiodeLow => 1.0,
+                Conduction::DiodeHigh => -1.0,
+                _ => continue,
+            };
+            // The current, conducting (y0 > 0), and its slope g0 \[A, A/s\]: y0 < −g0·h
+            // also means g0 < 0.
+            let (y0, g0) = (sign * x0[k], sign * f0[k]);
+            if !self.muted[k] && y0 > 0.0 && y0 < -g0 * h {
+                let t = y0 / -g0;
+                if first.is_none_or(|(t1, _)| t < t1) {
+                    first = Some((t, p));
+                }
+            }
+        }
+        let (_, p) = first?;
+        self.diode_zero(x0, f0, h, base, p).map(|t| (t, p))
+    }
+
+    /// Where freewheeling phase `p`'s current reaches zero on the modal response of the
+    /// step of `h` from `x0` \[s\], by Newton's method from the zero of the response's
+    /// quadratic Taylor polynomial at the start; `None` without a modal form or where that
+    /// zero or the iteration leaves the step.
+    #[inline(never)]
+    fn diode_zero(
+        &self,
+        x0: &State,
+        f0: &State,
+        h: f64,
+        base: (f64, f64, f64),
+        p: Phase,
+    ) -> Option<f64> {
+        let (_, md, _) = self.form();
+        let md = md.as_ref().filter(|_| self.modal)?;
+        let sc0 = emf::sin_cos_near(x0[THETA], base);
+        // The full step's forcing: a step of any length within it follows the same
+        // back-EMF to first order in the angle's lead (see [`Forcing`]).
+        let forcing = self.forcing(x0, h, f0, sc0);
+        let rsp = Response::new(md, &[x0[0], x0[1], x0[2]], sc0, &forcing);
+        let k = p.index();
+        // The zero of i0 + g·t + a·t²/2, the nearer root in its stable form.
+        let (g, a) = rsp.start_rates(k, sc0, forcing.omega);
+        let disc = g * g - 2.0 * a * x0[k];
+        let mut t = 2.0 * x0[k] / (-g + g.signum() * -disc.sqrt());
+        for _ in 0..8 {
+            if !(0.0..=h).contains(&t) {
+                return None; // beyond the step (or NaN): the step as usual
+            }
+            let (rs, rc) = emf::rotation(forcing.omega * t);
+            let sc = (sc0.0 * rc + sc0.1 * rs, sc0.1 * rc - sc0.0 * rs);
+            let (i, di) = rsp.current_and_rate(k, t, sc, forcing.omega, md.decays(t));
+            let dt = i / di;
+            t -= dt;
+            // Newton's error after this correction, ≈ a·dt²/2 in current \[A\]: far below
+            // the 1e-9 A the step's end must meet.
+            if 0.5 * a.abs() * dt * dt < 1e-14 {
+                return (0.0..=h).contains(&t).then_some(t);
+            }
+        }
+        None
     }
 
     /// Where the interpolated current of freewheeling phase `p` is most reversed inside
@@ -1294,9 +1385,18 @@ impl BldcPlant {
                 }
             };
             let f0 = self.end_derivative(&x0, &self.start, angle);
-            let mut x1 = self.integrate_from(&x0, t1 - t0, b0, &f0);
+            // A diode event predicted inside the step: the step ends there when its
+            // current is within 1e-9 A of zero (as the search after a step accepts).
+            let zero = self.predict_diode(&x0, &f0, t1 - t0, b0);
+            let mut x1 = self.integrate_from(&x0, zero.map_or(t1 - t0, |z| z.0), b0, &f0);
+            let predicted = zero.filter(|&(_, p)| x1[p.index()].abs() < 1e-9);
+            match (zero, predicted) {
+                (_, Some((h, _))) => t1 = t0 + h,
+                (Some(_), None) => x1 = self.integrate_from(&x0, t1 - t0, b0, &f0),
+                (None, None) => {}
+            }
             let (mut s1, mut sc1) = self.solution_at(&x1, b0);
-            let mut event = None;
+            let mut event = predicted.map(|(_, p)| p);
             let step = Dense {
                 x0: &x0,
                 f0: &f0,
@@ -1304,7 +1404,14 @@ impl BldcPlant {
                 di1: s1.di.to_array(),
                 h: t1 - t0,
             };
-            if let Some((h, p, at)) = self.first_event(&step, &s1, b0) {
+            // The predicted phase's event is the step's end; others may come first.
+            let muted = self.muted;
+            if let Some((_, p)) = predicted {
+                self.muted[p.index()] = true;
+            }
+            let found = self.first_event(&step, &s1, b0);
+            self.muted = muted;
+            if let Some((h, p, at)) = found {
                 // The step to the event is integrated (not interpolated), so the energy
                 // integrals stay consistent with the currents.
                 x1 = at.unwrap_or_else(|| self.integrate_from(&x0, h, b0, &f0));
