@@ -994,7 +994,7 @@ impl BldcPlant {
             t -= dt;
             // Newton's error after this correction, ≈ a·dt²/2 in current \[A\]: far below
             // the 1e-9 A the step's end must meet.
-            if 0.5 * a.abs() * dt * dt < 1e-14 {
+            if 0.5 * a.abs() * dt * dt < 1e-12 {
                 return (0.0..=h).contains(&t).then_some(t);
             }
         }
