@@ -244,8 +244,9 @@ impl CurrentSense {
     /// [0, 1], with ends `y0`, `y1` \[V\] and slopes `m0`, `m1` [V per update], provably
     /// stays on one side of each clip level 0 and `hi` \[V\]: the clip level, or the cubic.
     /// The cubic lies in the hull of its Bernstein points y0, y0 + m0/3, y1 − m1/3, y1;
-    /// evaluated from rounded coefficients it errs by a few ulps of |y0| + |y1| + |m0| +
-    /// |m1|, so a hull clear of a level by 1e-12 of that sum leaves every value
+    /// evaluated from rounded coefficients (each up to 3× the sum) it errs by under 100
+    /// ulps of |y0| + |y1| + |m0| + |m1|, so a hull clear of a level by 1e-12 of that sum
+    /// (outside the subnormal range) leaves every value
     /// [`CurrentSense::search_pieces`] evaluates on the same side: it would find no crossing
     /// and take this input. Otherwise (a hull at or across a level, e.g. a freewheeling
     /// shunt current at zero, or NaN) `None`.
@@ -330,13 +331,15 @@ mod tests {
     #[test]
     fn pieces_taken_at_once_equal_the_searched_ones_bit_for_bit() {
         // Currents inside the swing, beyond it, below zero, at zero with rounding-size
-        // slopes (the freewheeling shunt), and across either level, from a fixed LCG.
+        // slopes (the freewheeling shunt), across either level, and within ulps of one,
+        // from a fixed LCG.
         let base = CurrentSense::new(&CurrentSenseParams::default(), 0.25, 40e-6);
         let mut z = 0x2545_f491_4f6c_dd1d_u64;
         let mut unit = || {
             z = z.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1);
             (z >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
         };
+        let top = base.max_v / base.volts_per_amp; // [A]
         let mut at_once = 0;
         for k in 0..20_000 {
             let h = 1e-6 + 39e-6 * unit().abs();
@@ -347,8 +350,20 @@ mod tests {
                 _ => (0.05, 5e3),
             };
             let offset = if k % 4 == 0 { 0.25 } else { 0.0 };
-            let start = (offset + scale * unit(), rate * unit());
-            let end = (offset + scale * unit(), rate * unit());
+            let mut start = (offset + scale * unit(), rate * unit());
+            let mut end = (offset + scale * unit(), rate * unit());
+            if k % 5 == 4 {
+                // The margin's own case: an end, or the start's inner Bernstein point,
+                // within a few ulps of the inputs' size from a clip level (0 or the top).
+                let level = if k % 2 == 0 { 0.0 } else { top };
+                let size = start.0.abs() + end.0.abs() + level;
+                let near = level + unit() * 4.0 * f64::EPSILON * size;
+                if k % 3 == 0 {
+                    start.1 = 3.0 * (near - start.0) / h;
+                } else {
+                    end.0 = near;
+                }
+            }
             let (mut a, mut b) = (base.clone(), base.clone());
             a.y = unit();
             b.y = a.y;
