@@ -551,7 +551,7 @@ impl Circuit {
     /// [`Circuit::resolve`] with the network solved in each conduction state tried by
     /// `solve`, which is given the state's [`state_index`] and the state and must write
     /// [`Circuit::solve`]'s solution for currents `i` and back-EMFs `e` to its third
-    /// argument (a caller holding [`Plan`]s by index uses [`Circuit::solve_planned_into`]);
+    /// argument (a caller holding [`Plan`]s by index uses `Circuit::solve_planned_into`);
     /// `(at_clamp, keep_open)` as there. The resolved state's solution is written to `sol`
     /// (the caller's own, e.g. a plant's start: a returned solution was moved twice more);
     /// the state is returned with its index.
