@@ -877,11 +877,15 @@ impl Front {
         let tau = tick_instant(k) - c.t0;
         let from = (k, tau, e, zk);
         // Without ringing the phasor stays 0 and adds nothing to the signal (but the sign
-        // of a zero, which no threshold test sees): a loop without it.
-        let out = if zk == (0.0, 0.0) {
-            self.walk_ticks::<false>(x, from, last, &poly)
-        } else {
-            self.walk_ticks::<true>(x, from, last, &poly)
+        // of a zero, which no threshold test sees): a loop without it. Likewise P is
+        // linear but for a floating leg's bend on a long step, and its cubic terms then
+        // add only zeros.
+        let linear = poly[2] == 0.0 && poly[3] == 0.0;
+        let out = match (zk == (0.0, 0.0), linear) {
+            (true, true) => self.walk_ticks::<false, true>(x, from, last, &poly),
+            (true, false) => self.walk_ticks::<false, false>(x, from, last, &poly),
+            (false, true) => self.walk_ticks::<true, true>(x, from, last, &poly),
+            (false, false) => self.walk_ticks::<true, false>(x, from, last, &poly),
         };
         *self.out.get_mut(x) = out;
         out
@@ -889,10 +893,10 @@ impl Front {
 
     /// [`Front::walk`]'s loop over channel `x`'s ticks `k..=last` from τ, the transients
     /// (A·e^{−τ/τp}, B·e^{−τ/τn}) and the ringing phasor there (`from`), with P's
-    /// coefficients `poly` (noise included), `RING` if the phasor is not 0; returns the
-    /// output after the last tick.
+    /// coefficients `poly` (noise included), `RING` if the phasor is not 0, `LINEAR` if
+    /// P's τ² and τ³ coefficients are zero; returns the output after the last tick.
     #[inline(always)]
-    fn walk_ticks<const RING: bool>(
+    fn walk_ticks<const RING: bool, const LINEAR: bool>(
         &mut self,
         x: Phase,
         (k, mut tau, (mut ep, mut en), mut zk): (u64, f64, (f64, f64), (f64, f64)),
@@ -904,8 +908,19 @@ impl Front {
         // The output toggles where sign·s passes h/2: above +h/2 when low, below −h/2
         // when high (a negation is exact, so the test is the same).
         let mut sign = if out { -1.0 } else { 1.0 };
-        for kk in k..=last {
-            let mut s = horner(poly, tau) + ep - en;
+        // A plain counted loop: an inclusive range's iterator costs a handful of
+        // instructions a tick more.
+        let mut kk = k;
+        while kk <= last {
+            // c0 + τ·c1 is what Horner's scheme gives with zero c2 and c3, bit for bit
+            // (τ > 0: the zeros it adds are exact; at most a zero's sign differs, which no
+            // threshold test sees).
+            let p = if LINEAR {
+                poly[0] + tau * poly[1]
+            } else {
+                horner(poly, tau)
+            };
+            let mut s = p + ep - en;
             if RING {
                 s += zk.1;
             }
@@ -921,6 +936,7 @@ impl Front {
                 zk = (zk.0 * qr.0 - zk.1 * qr.1, zk.0 * qr.1 + zk.1 * qr.0);
             }
             tau += TICK_S;
+            kk += 1;
         }
         out
     }
