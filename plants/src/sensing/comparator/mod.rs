@@ -899,44 +899,80 @@ impl Front {
     fn walk_ticks<const RING: bool, const LINEAR: bool>(
         &mut self,
         x: Phase,
-        (k, mut tau, (mut ep, mut en), mut zk): (u64, f64, (f64, f64), (f64, f64)),
+        (k, tau, (ep, en), zk): (u64, f64, (f64, f64), (f64, f64)),
         last: u64,
         poly: &[f64; 4],
     ) -> bool {
         let (half_h, qp, qn, qr) = (self.half_h, self.q_p, self.q_n, self.q_ring);
         let (ch, mut out) = (x.index(), self.out.get(x));
-        // The output toggles where sign·s passes h/2: above +h/2 when low, below −h/2
-        // when high (a negation is exact, so the test is the same).
-        let mut sign = if out { -1.0 } else { 1.0 };
-        // A plain counted loop: an inclusive range's iterator costs a handful of
-        // instructions a tick more.
-        let mut kk = k;
-        while kk <= last {
-            // c0 + τ·c1 is what Horner's scheme gives with zero c2 and c3, bit for bit
-            // (τ > 0: the zeros it adds are exact; at most a zero's sign differs, which no
-            // threshold test sees).
-            let p = if LINEAR {
+        // c0 + τ·c1 is what Horner's scheme gives with zero c2 and c3, bit for bit (τ > 0:
+        // the zeros it adds are exact; at most a zero's sign differs, which no threshold
+        // test sees).
+        let p = |tau: f64| {
+            if LINEAR {
                 poly[0] + tau * poly[1]
             } else {
                 horner(poly, tau)
-            };
-            let mut s = p + ep - en;
+            }
+        };
+        // The output toggles where sign·s passes h/2: above +h/2 when low, below −h/2
+        // when high (a negation is exact, so the test is the same).
+        let mut sign = if out { -1.0 } else { 1.0 };
+        // Two ticks at a time, as two lanes each stepped by two ticks' factors (the
+        // compiler pairs the lanes' operations): the signal at a tick then differs from a
+        // tick-by-tick recurrence's by a few ulps, far below anything a threshold test
+        // resolves. Toggles are rare: the pair's lanes are tested together, then in turn.
+        let (qp2, qn2) = (qp * qp, qn * qn);
+        let qr2 = (qr.0 * qr.0 - qr.1 * qr.1, 2.0 * qr.0 * qr.1);
+        let mut t2 = [tau, tau + TICK_S];
+        let mut ep2 = [ep, ep * qp];
+        let mut en2 = [en, en * qn];
+        let (mut zr, mut zi) = if RING {
+            (
+                [zk.0, zk.0 * qr.0 - zk.1 * qr.1],
+                [zk.1, zk.0 * qr.1 + zk.1 * qr.0],
+            )
+        } else {
+            ([0.0; 2], [0.0; 2])
+        };
+        let mut kk = k;
+        while kk < last {
+            let mut s2 = [p(t2[0]) + ep2[0] - en2[0], p(t2[1]) + ep2[1] - en2[1]];
             if RING {
-                s += zk.1;
+                s2 = [s2[0] + zi[0], s2[1] + zi[1]];
+            }
+            if (sign * s2[0] > half_h) | (sign * s2[1] > half_h) {
+                for (j, s) in s2.into_iter().enumerate() {
+                    if sign * s > half_h {
+                        out = !out;
+                        sign = -sign;
+                        self.hist[ch].push(kk + j as u64, out);
+                        self.toggles += 1;
+                    }
+                }
+            }
+            ep2 = [ep2[0] * qp2, ep2[1] * qp2];
+            en2 = [en2[0] * qn2, en2[1] * qn2];
+            if RING {
+                (zr, zi) = (
+                    [zr[0] * qr2.0 - zi[0] * qr2.1, zr[1] * qr2.0 - zi[1] * qr2.1],
+                    [zr[0] * qr2.1 + zi[0] * qr2.0, zr[1] * qr2.1 + zi[1] * qr2.0],
+                );
+            }
+            t2 = [t2[0] + 2.0 * TICK_S, t2[1] + 2.0 * TICK_S];
+            kk += 2;
+        }
+        // An odd tick left: the first lane's.
+        if kk == last {
+            let mut s = p(t2[0]) + ep2[0] - en2[0];
+            if RING {
+                s += zi[0];
             }
             if sign * s > half_h {
                 out = !out;
-                sign = -sign;
                 self.hist[ch].push(kk, out);
                 self.toggles += 1;
             }
-            ep *= qp;
-            en *= qn;
-            if RING {
-                zk = (zk.0 * qr.0 - zk.1 * qr.1, zk.0 * qr.1 + zk.1 * qr.0);
-            }
-            tau += TICK_S;
-            kk += 1;
         }
         out
     }
