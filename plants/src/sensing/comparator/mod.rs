@@ -28,7 +28,7 @@ use super::rc::{CubicRc, ExpTable, hermite, horner};
 use super::tick_powers::{RealPairPowers, TickPowers};
 use crate::params::ComparatorParams;
 use drive_core::{Abc, Phase, TICK_S, Ticks};
-use records::{Record, Records};
+use records::{Bend, Record, Records};
 
 /// The terminal and neutral voltages at one end of a plant step. Between two ends each
 /// voltage is interpolated along its chord, except that a terminal following the neutral
@@ -171,18 +171,19 @@ impl Channel {
     /// The channel over a step from `t0` (its first tick and the decays there are set when
     /// a scan needs them): the phase path's response `fx` to its chord, plus `bend` to its
     /// back-EMF's curvature (a floating leg), less the neutral path's `fn_`.
-    /// `inv_tau` holds 1/τp and 1/τn, the filters' inverse time constants; the step is `h`.
+    /// `taus` holds τp and τn, the filters' time constants \[s\], `inv_tau` their
+    /// inverses; the step is `h`.
     fn new(
         x: Phase,
         t0: f64,
-        (fx, bend, fn_): (&Foh, Option<&CubicRc>, &Foh),
-        inv_tau: (f64, f64),
+        (fx, bend, fn_): (&Foh, Option<&Bend>, &Foh),
+        (taus, inv_tau): ((f64, f64), (f64, f64)),
         offset: f64,
         h: f64,
     ) -> Self {
         let (q, qt) = bend.map_or(([0.0; 4], 0.0), |b| (b.p, b.transient));
         let poly = [
-            fx.a - fn_.a - fx.b * fx.tau + fn_.b * fn_.tau - offset + q[0],
+            fx.a - fn_.a - fx.b * taus.0 + fn_.b * taus.1 - offset + q[0],
             fx.b - fn_.b + q[1],
             q[2],
             q[3],
@@ -434,7 +435,7 @@ impl ComparatorBank {
                 *slot = None;
             }
         }
-        (f.y, f.y_n) = rec.filters_at(rec.h, rec.eh);
+        (f.y, f.y_n) = rec.filters_at(rec.h, rec.eh, (f.tau_p, f.tau_n));
     }
 
     /// Declares from which instant each channel is read (`read_from`, see
@@ -587,7 +588,7 @@ impl ComparatorBank {
         let f = &mut self.front;
         let tau = t.seconds() - rec.t0;
         let [dp, dn] = f.exp_pn.at(tau);
-        (f.y, f.y_n) = rec.filters_at(tau, (dp, dn));
+        (f.y, f.y_n) = rec.filters_at(tau, (dp, dn), (f.tau_p, f.tau_n));
         for x in Phase::ALL {
             let h = &mut f.hist[x.index()];
             f.toggles -= h.truncate_after(t.0);
@@ -1097,7 +1098,7 @@ impl Front {
                 (Some(d0), Some(d1)) => {
                     let (a, b) = (dvn + d0 - chord[j], dvn + d1 - chord[j]);
                     let q = hermite(inv_h, (0.0, a), (0.0, b));
-                    Some(CubicRc::new(0.0, 0.0, q, self.tau_p))
+                    Some(Bend::new(&CubicRc::new(0.0, 0.0, q, self.tau_p)))
                 }
                 _ => None,
             }),
@@ -1114,7 +1115,8 @@ impl Front {
         let j = x.index();
         let paths = (&rec.fx[j], rec.bend[j].as_ref(), &rec.fn_);
         let off = self.offset.get(x);
-        let mut c = Channel::new(x, rec.t0, paths, self.inv_tau, off, rec.h);
+        let taus = ((self.tau_p, self.tau_n), self.inv_tau);
+        let mut c = Channel::new(x, rec.t0, paths, taus, off, rec.h);
         c.k_s = rec.k_start;
         c.base = rec.first;
         c
