@@ -21,7 +21,9 @@ use std::path::Path;
 // 4: the drive's dynamic state by value instead of a record to replay.
 // 5: the plant's start solution may hold its losses unmade (copper −0.0); the comparator
 //    records hold the ringing envelope at the step's first tick, not at its start.
-const MAGIC: &[u8; 8] = b"BLDCFMU5";
+// 6: the comparator records keep their filters' responses without the time constants
+//    (the parameters') and a floating leg's bend as its cubic and transient alone.
+const MAGIC: &[u8; 8] = b"BLDCFMU6";
 const HEADER: usize = 8 + 8 + 8;
 
 /// FNV-1a, 64 bit (offset basis 0xcbf29ce484222325, prime 0x100000001b3). Each byte
@@ -319,7 +321,7 @@ mod tests {
         let Err(e) = deserialize(&old, None) else {
             panic!("an old-format state was accepted")
         };
-        assert!(e.contains("bad magic") && e.contains("BLDCFMU5"), "{e}");
+        assert!(e.contains("bad magic") && e.contains("BLDCFMU6"), "{e}");
     }
 
     /// The header's hash recomputed after the payload was edited, as bytes made on purpose

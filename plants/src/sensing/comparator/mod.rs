@@ -28,7 +28,7 @@ use super::rc::{CubicRc, ExpTable, hermite, horner};
 use super::tick_powers::{RealPairPowers, TickPowers};
 use crate::params::ComparatorParams;
 use drive_core::{Abc, Phase, TICK_S, Ticks};
-use records::{Record, Records};
+use records::{Bend, Record, Records};
 
 /// The terminal and neutral voltages at one end of a plant step. Between two ends each
 /// voltage is interpolated along its chord, except that a terminal following the neutral
@@ -171,18 +171,19 @@ impl Channel {
     /// The channel over a step from `t0` (its first tick and the decays there are set when
     /// a scan needs them): the phase path's response `fx` to its chord, plus `bend` to its
     /// back-EMF's curvature (a floating leg), less the neutral path's `fn_`.
-    /// `inv_tau` holds 1/τp and 1/τn, the filters' inverse time constants; the step is `h`.
+    /// `taus` holds τp and τn, the filters' time constants \[s\], `inv_tau` their
+    /// inverses; the step is `h`.
     fn new(
         x: Phase,
         t0: f64,
-        (fx, bend, fn_): (&Foh, Option<&CubicRc>, &Foh),
-        inv_tau: (f64, f64),
+        (fx, bend, fn_): (&Foh, Option<&Bend>, &Foh),
+        (taus, inv_tau): ((f64, f64), (f64, f64)),
         offset: f64,
         h: f64,
     ) -> Self {
         let (q, qt) = bend.map_or(([0.0; 4], 0.0), |b| (b.p, b.transient));
         let poly = [
-            fx.a - fn_.a - fx.b * fx.tau + fn_.b * fn_.tau - offset + q[0],
+            fx.a - fn_.a - fx.b * taus.0 + fn_.b * taus.1 - offset + q[0],
             fx.b - fn_.b + q[1],
             q[2],
             q[3],
@@ -434,7 +435,7 @@ impl ComparatorBank {
                 *slot = None;
             }
         }
-        (f.y, f.y_n) = rec.filters_at(rec.h, rec.eh);
+        (f.y, f.y_n) = rec.filters_at(rec.h, rec.eh, (f.tau_p, f.tau_n));
     }
 
     /// Declares from which instant each channel is read (`read_from`, see
@@ -587,7 +588,7 @@ impl ComparatorBank {
         let f = &mut self.front;
         let tau = t.seconds() - rec.t0;
         let [dp, dn] = f.exp_pn.at(tau);
-        (f.y, f.y_n) = rec.filters_at(tau, (dp, dn));
+        (f.y, f.y_n) = rec.filters_at(tau, (dp, dn), (f.tau_p, f.tau_n));
         for x in Phase::ALL {
             let h = &mut f.hist[x.index()];
             f.toggles -= h.truncate_after(t.0);
@@ -877,11 +878,15 @@ impl Front {
         let tau = tick_instant(k) - c.t0;
         let from = (k, tau, e, zk);
         // Without ringing the phasor stays 0 and adds nothing to the signal (but the sign
-        // of a zero, which no threshold test sees): a loop without it.
-        let out = if zk == (0.0, 0.0) {
-            self.walk_ticks::<false>(x, from, last, &poly)
-        } else {
-            self.walk_ticks::<true>(x, from, last, &poly)
+        // of a zero, which no threshold test sees): a loop without it. Likewise P is
+        // linear but for a floating leg's bend on a long step, and its cubic terms then
+        // add only zeros.
+        let linear = poly[2] == 0.0 && poly[3] == 0.0;
+        let out = match (zk == (0.0, 0.0), linear) {
+            (true, true) => self.walk_ticks::<false, true>(x, from, last, &poly),
+            (true, false) => self.walk_ticks::<false, false>(x, from, last, &poly),
+            (false, true) => self.walk_ticks::<true, true>(x, from, last, &poly),
+            (false, false) => self.walk_ticks::<true, false>(x, from, last, &poly),
         };
         *self.out.get_mut(x) = out;
         out
@@ -889,38 +894,86 @@ impl Front {
 
     /// [`Front::walk`]'s loop over channel `x`'s ticks `k..=last` from τ, the transients
     /// (A·e^{−τ/τp}, B·e^{−τ/τn}) and the ringing phasor there (`from`), with P's
-    /// coefficients `poly` (noise included), `RING` if the phasor is not 0; returns the
-    /// output after the last tick.
+    /// coefficients `poly` (noise included), `RING` if the phasor is not 0, `LINEAR` if
+    /// P's τ² and τ³ coefficients are zero; returns the output after the last tick.
     #[inline(always)]
-    fn walk_ticks<const RING: bool>(
+    fn walk_ticks<const RING: bool, const LINEAR: bool>(
         &mut self,
         x: Phase,
-        (k, mut tau, (mut ep, mut en), mut zk): (u64, f64, (f64, f64), (f64, f64)),
+        (k, tau, (ep, en), zk): (u64, f64, (f64, f64), (f64, f64)),
         last: u64,
         poly: &[f64; 4],
     ) -> bool {
         let (half_h, qp, qn, qr) = (self.half_h, self.q_p, self.q_n, self.q_ring);
         let (ch, mut out) = (x.index(), self.out.get(x));
+        // c0 + τ·c1 is what Horner's scheme gives with zero c2 and c3, bit for bit (τ > 0:
+        // the zeros it adds are exact; at most a zero's sign differs, which no threshold
+        // test sees).
+        let p = |tau: f64| {
+            if LINEAR {
+                poly[0] + tau * poly[1]
+            } else {
+                horner(poly, tau)
+            }
+        };
         // The output toggles where sign·s passes h/2: above +h/2 when low, below −h/2
         // when high (a negation is exact, so the test is the same).
         let mut sign = if out { -1.0 } else { 1.0 };
-        for kk in k..=last {
-            let mut s = horner(poly, tau) + ep - en;
+        // Two ticks at a time, as two lanes each stepped by two ticks' factors (the
+        // compiler pairs the lanes' operations): the signal at a tick then differs from a
+        // tick-by-tick recurrence's by a few ulps, far below anything a threshold test
+        // resolves. Toggles are rare: the pair's lanes are tested together, then in turn.
+        let (qp2, qn2) = (qp * qp, qn * qn);
+        let qr2 = (qr.0 * qr.0 - qr.1 * qr.1, 2.0 * qr.0 * qr.1);
+        let mut t2 = [tau, tau + TICK_S];
+        let mut ep2 = [ep, ep * qp];
+        let mut en2 = [en, en * qn];
+        let (mut zr, mut zi) = if RING {
+            (
+                [zk.0, zk.0 * qr.0 - zk.1 * qr.1],
+                [zk.1, zk.0 * qr.1 + zk.1 * qr.0],
+            )
+        } else {
+            ([0.0; 2], [0.0; 2])
+        };
+        let mut kk = k;
+        while kk < last {
+            let mut s2 = [p(t2[0]) + ep2[0] - en2[0], p(t2[1]) + ep2[1] - en2[1]];
             if RING {
-                s += zk.1;
+                s2 = [s2[0] + zi[0], s2[1] + zi[1]];
+            }
+            if (sign * s2[0] > half_h) | (sign * s2[1] > half_h) {
+                for (j, s) in s2.into_iter().enumerate() {
+                    if sign * s > half_h {
+                        out = !out;
+                        sign = -sign;
+                        self.hist[ch].push(kk + j as u64, out);
+                        self.toggles += 1;
+                    }
+                }
+            }
+            ep2 = [ep2[0] * qp2, ep2[1] * qp2];
+            en2 = [en2[0] * qn2, en2[1] * qn2];
+            if RING {
+                (zr, zi) = (
+                    [zr[0] * qr2.0 - zi[0] * qr2.1, zr[1] * qr2.0 - zi[1] * qr2.1],
+                    [zr[0] * qr2.1 + zi[0] * qr2.0, zr[1] * qr2.1 + zi[1] * qr2.0],
+                );
+            }
+            t2 = [t2[0] + 2.0 * TICK_S, t2[1] + 2.0 * TICK_S];
+            kk += 2;
+        }
+        // An odd tick left: the first lane's.
+        if kk == last {
+            let mut s = p(t2[0]) + ep2[0] - en2[0];
+            if RING {
+                s += zi[0];
             }
             if sign * s > half_h {
                 out = !out;
-                sign = -sign;
                 self.hist[ch].push(kk, out);
                 self.toggles += 1;
             }
-            ep *= qp;
-            en *= qn;
-            if RING {
-                zk = (zk.0 * qr.0 - zk.1 * qr.1, zk.0 * qr.1 + zk.1 * qr.0);
-            }
-            tau += TICK_S;
         }
         out
     }
@@ -1045,7 +1098,7 @@ impl Front {
                 (Some(d0), Some(d1)) => {
                     let (a, b) = (dvn + d0 - chord[j], dvn + d1 - chord[j]);
                     let q = hermite(inv_h, (0.0, a), (0.0, b));
-                    Some(CubicRc::new(0.0, 0.0, q, self.tau_p))
+                    Some(Bend::new(&CubicRc::new(0.0, 0.0, q, self.tau_p)))
                 }
                 _ => None,
             }),
@@ -1062,7 +1115,8 @@ impl Front {
         let j = x.index();
         let paths = (&rec.fx[j], rec.bend[j].as_ref(), &rec.fn_);
         let off = self.offset.get(x);
-        let mut c = Channel::new(x, rec.t0, paths, self.inv_tau, off, rec.h);
+        let taus = ((self.tau_p, self.tau_n), self.inv_tau);
+        let mut c = Channel::new(x, rec.t0, paths, taus, off, rec.h);
         c.k_s = rec.k_start;
         c.base = rec.first;
         c

@@ -3,14 +3,42 @@
 
 use super::Ring;
 use crate::sensing::foh::Foh;
-use crate::sensing::rc::CubicRc;
+use crate::sensing::rc::{CubicRc, horner};
 use drive_core::Abc;
 
 /// Steps kept for channels nobody reads: enough to walk them later, with room for 16
 /// (a channel still undecided over the oldest is decided before it goes).
 pub(super) const RECORDS: usize = 16;
 
+/// A floating leg's phase-path response to its back-EMF's bend (a [`CubicRc`] from rest at
+/// τ = 0 through the phase filter): its particular cubic and transient alone, since the
+/// start and time constant are the same for every bend.
+#[derive(Copy, Clone, Debug, Default, PartialEq)]
+pub(super) struct Bend {
+    /// The particular solution's coefficients \[V, V/s, V/s², V/s³\].
+    pub(super) p: [f64; 4],
+    /// Its transient's amplitude at τ = 0 \[V\].
+    pub(super) transient: f64,
+}
+
+impl Bend {
+    /// The bend of `rc`, a [`CubicRc`] from τ = 0 through the phase filter.
+    pub(super) fn new(rc: &CubicRc) -> Self {
+        debug_assert_eq!(rc.from, 0.0);
+        Bend {
+            p: rc.p,
+            transient: rc.transient,
+        }
+    }
+
+    /// Its value at τ given the transient's decay there (as [`CubicRc::at_decayed`]).
+    pub(super) fn at_decayed(&self, t: f64, decay: f64) -> f64 {
+        horner(&self.p, t) + self.transient * decay
+    }
+}
+
 /// One step's inputs to the three channels: the filter responses over it and the ringing.
+/// Kept small: every step's record is copied into the ring.
 #[derive(Copy, Clone, Debug)]
 pub(super) struct Record {
     /// Start \[s\] and length \[s\].
@@ -20,9 +48,10 @@ pub(super) struct Record {
     pub(super) k_start: u64,
     pub(super) k_end: u64,
     /// Each phase path's response to its chord and to a floating leg's bend, the neutral
-    /// path's response (see [`super::Channel::new`]).
+    /// path's response (see [`super::Channel::new`]), through the phase filter (τp) and
+    /// the neutral's (τn).
     pub(super) fx: [Foh; 3],
-    pub(super) bend: [Option<CubicRc>; 3],
+    pub(super) bend: [Option<Bend>; 3],
     pub(super) fn_: Foh,
     /// e^{−h/τp}, e^{−h/τn}, and the decays at the first tick.
     pub(super) eh: (f64, f64),
@@ -34,13 +63,20 @@ pub(super) struct Record {
 
 impl Record {
     /// The filters' outputs τ \[s\] into the step, phase paths and neutral path \[V\],
-    /// given their decays there, e^{−τ/τp} and e^{−τ/τn}.
-    pub(super) fn filters_at(&self, tau: f64, (dp, dn): (f64, f64)) -> (Abc<f64>, f64) {
+    /// given their decays there, e^{−τ/τp} and e^{−τ/τn}, and their time constants
+    /// `taus` = (τp, τn) \[s\].
+    pub(super) fn filters_at(
+        &self,
+        tau: f64,
+        (dp, dn): (f64, f64),
+        (tau_p, tau_n): (f64, f64),
+    ) -> (Abc<f64>, f64) {
         let y = Abc::from_fn(|x| {
             let j = x.index();
-            self.fx[j].at_decayed(tau, dp) + self.bend[j].map_or(0.0, |b| b.at_decayed(tau, dp))
+            self.fx[j].at_decayed(tau, dp, tau_p)
+                + self.bend[j].map_or(0.0, |b| b.at_decayed(tau, dp))
         });
-        (y, self.fn_.at_decayed(tau, dn))
+        (y, self.fn_.at_decayed(tau, dn, tau_n))
     }
 }
 

@@ -3,14 +3,15 @@
 //! scans left pending. The front end's parameters and tables are never read back; the
 //! noise is a function of the tick, so it has no state of its own.
 
-use super::records::{RECORDS, Record, Records};
+use super::records::{Bend, RECORDS, Record, Records};
 use super::{Channel, ComparatorBank, Cursor, Front, History, Ring, ScanWork};
 use crate::sensing::foh::Foh;
 use crate::sensing::rc::CubicRc;
 use drive_core::state::check;
 use drive_core::{Phase, persist_fields};
 
-persist_fields!(Foh { a, b, c, tau });
+persist_fields!(Foh { a, b, c });
+persist_fields!(Bend { p, transient });
 persist_fields!(CubicRc {
     p,
     from,
@@ -76,7 +77,14 @@ impl Default for Record {
 impl Default for Channel {
     fn default() -> Self {
         let f = Foh::default();
-        Channel::new(Phase::U, 0.0, (&f, None, &f), (1.0, 1.0), 0.0, 0.0)
+        Channel::new(
+            Phase::U,
+            0.0,
+            (&f, None, &f),
+            ((1.0, 1.0), (1.0, 1.0)),
+            0.0,
+            0.0,
+        )
     }
 }
 
