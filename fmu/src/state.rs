@@ -317,7 +317,7 @@ mod tests {
         assert!(deserialize(b"nonsense", None).is_err());
         assert!(deserialize(b"", None).is_err());
         let mut old = bytes.clone();
-        old[7] = b'3'; // a state of the previous format, with a record to replay
+        old[7] = b'5'; // a state of the previous format (BLDCFMU5)
         let Err(e) = deserialize(&old, None) else {
             panic!("an old-format state was accepted")
         };

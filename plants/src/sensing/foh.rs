@@ -32,13 +32,13 @@ impl Foh {
     }
 
     /// Filter output at τ seconds into the segment, given `decay` = e^{−τ/tau} (`tau` the
-    /// filter's time constant, as built).
+    /// filter's time constant \[s\], as built).
     pub fn at_decayed(&self, t: f64, decay: f64, tau: f64) -> f64 {
         self.a + self.b * (t - tau) + self.c * decay
     }
 
-    /// Filter output at τ seconds into the segment (`tau` the filter's time constant, as
-    /// built).
+    /// Filter output at τ seconds into the segment (`tau` the filter's time constant \[s\],
+    /// as built).
     pub fn at(&self, t: f64, tau: f64) -> f64 {
         self.a + self.b * (t - tau) + self.c * (-t / tau).exp()
     }

@@ -64,7 +64,7 @@ pub(super) struct Record {
 impl Record {
     /// The filters' outputs τ \[s\] into the step, phase paths and neutral path \[V\],
     /// given their decays there, e^{−τ/τp} and e^{−τ/τn}, and their time constants
-    /// `taus` = (τp, τn) \[s\].
+    /// `tau_p`, `tau_n` \[s\].
     pub(super) fn filters_at(
         &self,
         tau: f64,
