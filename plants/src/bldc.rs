@@ -1431,10 +1431,9 @@ impl BldcPlant {
                 (Some(p), Some(b)) => Self::diode_zero(b, x0[p.index()], p, h).map(|t| (t, p)),
                 _ => None,
             };
-            let mut x1 = match (zero, &built) {
-                (Some((hz, _)), Some(b)) => self.flow_built(&x0, hz, &f0, b),
-                (_, Some(b)) => self.flow_built(&x0, h, &f0, b),
-                (_, None) => self.integrate_from(&x0, h, b0, &f0),
+            let mut x1 = match &built {
+                Some(b) => self.flow_built(&x0, zero.map_or(h, |z| z.0), &f0, b),
+                None => self.integrate_from(&x0, h, b0, &f0),
             };
             let predicted = zero.filter(|&(_, p)| x1[p.index()].abs() < 1e-9);
             match (zero, predicted, &built) {
