@@ -552,6 +552,11 @@ impl BldcPlant {
         }
     }
 
+    /// A step of `h` from `x` (derivative `k1`) on a modal response already built for it.
+    fn flow_built(&self, x: &State, h: f64, k1: &State, b: &Built) -> State {
+        self.flow_with(b.md, &self.form().0, x, h, k1, b.sc0, &b.rsp, b.omega)
+    }
+
     /// A step by the modal form `md` (see [`crate::modal`]): the currents exactly for the
     /// speed changing at the acceleration in `k1` (to first order in it); speed, angle and
     /// energy integrals by RK4's weights on those currents (for the energies, whose rates
@@ -566,14 +571,30 @@ impl BldcPlant {
         base: (f64, f64, f64),
         k1: &State,
     ) -> State {
+        let sc0 = emf::sin_cos_near(x[THETA], base);
+        let forcing = self.forcing(x, h, k1, sc0);
+        let rsp = Response::new(md, &[x[0], x[1], x[2]], sc0, &forcing);
+        self.flow_with(md, lin, x, h, k1, sc0, &rsp, forcing.omega)
+    }
+
+    /// [`BldcPlant::flow_from`] on a response already built, `rsp` (sin θ and cos θ at
+    /// the start `sc0`, the forcing's Ω `omega_e` [rad/s]).
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    fn flow_with(
+        &self,
+        md: &Modal,
+        lin: &Linearised,
+        x: &State,
+        h: f64,
+        k1: &State,
+        sc0: (f64, f64),
+        rsp: &Response,
+        omega_e: f64,
+    ) -> State {
         let (w0, th0) = (x[OMEGA], x[THETA]);
         let kl = self.lambda * self.pp;
         let w2 = w0 + 0.5 * h * k1[OMEGA];
-        let i0 = [x[0], x[1], x[2]];
-        let sc0 = emf::sin_cos_near(th0, base);
-        let forcing = self.forcing(x, h, k1, sc0);
-        let omega_e = forcing.omega;
-        let rsp = Response::new(md, &i0, sc0, &forcing);
         let half = md.decays(0.5 * h);
         let full = [half[0] * half[0], half[1] * half[1]];
         // The angles at mid-step and at the end: two rotations by Ω·h/2.
@@ -921,21 +942,13 @@ impl BldcPlant {
         first
     }
 
-    /// A freewheeling current that reaches zero inside the step of `h` from `x0`
-    /// (derivative `f0`, angle base `base`), found before the step is integrated so that
-    /// the step is not integrated past its event: the step's length to that zero and the
-    /// phase. Only the phase whose current's tangent reaches zero first within the step is
-    /// tried (a freewheeling current's fall slows as its resistive drop fades, so the
-    /// tangent reaches zero first); an event the prediction misses is found after the step
-    /// as before.
+    /// The freewheeling phase whose diode event may end the step of `h` from `x0`
+    /// (derivative `f0`): only the phase whose current's tangent reaches zero first within
+    /// the step is tried (a freewheeling current's fall slows as its resistive drop fades,
+    /// so the tangent reaches zero first); an event the prediction misses is found after
+    /// the step as before.
     #[inline(always)]
-    fn predict_diode(
-        &self,
-        x0: &State,
-        f0: &State,
-        h: f64,
-        base: (f64, f64, f64),
-    ) -> Option<(f64, Phase)> {
+    fn diode_candidate(&self, x0: &State, f0: &State, h: f64) -> Option<Phase> {
         let mut first: Option<(f64, Phase)> = None;
         for p in Phase::ALL {
             let k = p.index();
@@ -954,42 +967,66 @@ impl BldcPlant {
                 }
             }
         }
-        let (_, p) = first?;
-        self.diode_zero(x0, f0, h, base, p).map(|t| (t, p))
+        first.map(|(_, p)| p)
     }
 
-    /// Where freewheeling phase `p`'s current reaches zero on the modal response of the
-    /// step of `h` from `x0` \[s\], by Newton's method from the zero of the response's
-    /// quadratic Taylor polynomial at the start; `None` without a modal form or where that
-    /// zero or the iteration leaves the step.
-    #[inline(never)]
-    fn diode_zero(
+    /// The modal response of the whole step of `h` from `x0` (derivative `f0`, angle base
+    /// `base`), if there is a modal form. A step of any length within it follows the same
+    /// back-EMF to first order in the angle's lead (see [`Forcing`]), so the step to a
+    /// predicted diode event is integrated on it too.
+    #[inline(always)]
+    fn step_response(
         &self,
         x0: &State,
         f0: &State,
         h: f64,
         base: (f64, f64, f64),
-        p: Phase,
-    ) -> Option<f64> {
+    ) -> Option<Built<'_>> {
         let (_, md, _) = self.form();
         let md = md.as_ref().filter(|_| self.modal)?;
         let sc0 = emf::sin_cos_near(x0[THETA], base);
-        // The full step's forcing: a step of any length within it follows the same
-        // back-EMF to first order in the angle's lead (see [`Forcing`]).
         let forcing = self.forcing(x0, h, f0, sc0);
-        let rsp = Response::new(md, &[x0[0], x0[1], x0[2]], sc0, &forcing);
-        let k = p.index();
+        Some(Built {
+            rsp: Response::new(md, &[x0[0], x0[1], x0[2]], sc0, &forcing),
+            md,
+            sc0,
+            omega: forcing.omega,
+        })
+    }
+
+    /// Where freewheeling phase `p`'s current (`i0` \[A\] at the start) reaches zero on
+    /// the step's response `b` within the step of `h` \[s\]: a diode event predicted before
+    /// the step is integrated, so that it is not integrated past it. `None` where that
+    /// zero or the iteration leaves the step.
+    #[inline(never)]
+    fn diode_zero(b: &Built, i0: f64, p: Phase, h: f64) -> Option<f64> {
+        Self::newton_zero(b.md, &b.rsp, i0, p.index(), b.sc0, b.omega, h)
+    }
+
+    /// The zero of phase `k`'s current on `rsp` (starting at `i0` \[A\], sin θ and cos θ
+    /// `sc0`, the forcing's Ω `omega` [rad/s]) within a step of `h` \[s\], by Newton's
+    /// method from the zero of its quadratic Taylor polynomial at the start.
+    #[inline(always)]
+    fn newton_zero(
+        md: &Modal,
+        rsp: &Response,
+        i0: f64,
+        k: usize,
+        sc0: (f64, f64),
+        omega: f64,
+        h: f64,
+    ) -> Option<f64> {
         // The zero of i0 + g·t + a·t²/2, the nearer root in its stable form.
-        let (g, a) = rsp.start_rates(k, sc0, forcing.omega);
-        let disc = g * g - 2.0 * a * x0[k];
-        let mut t = 2.0 * x0[k] / (-g + g.signum() * -disc.sqrt());
+        let (g, a) = rsp.start_rates(k, sc0, omega);
+        let disc = g * g - 2.0 * a * i0;
+        let mut t = 2.0 * i0 / (-g + g.signum() * -disc.sqrt());
         for _ in 0..8 {
             if !(0.0..=h).contains(&t) {
                 return None; // beyond the step (or NaN): the step as usual
             }
-            let (rs, rc) = emf::rotation(forcing.omega * t);
+            let (rs, rc) = emf::rotation(omega * t);
             let sc = (sc0.0 * rc + sc0.1 * rs, sc0.1 * rc - sc0.0 * rs);
-            let (i, di) = rsp.current_and_rate(k, t, sc, forcing.omega, md.decays(t));
+            let (i, di) = rsp.current_and_rate(k, t, sc, omega, md.decays(t));
             let dt = i / di;
             t -= dt;
             // Newton's error after this correction, ≈ a·dt²/2 in current \[A\]: far below
@@ -1387,13 +1424,22 @@ impl BldcPlant {
             let f0 = self.end_derivative(&x0, &self.start, angle);
             // A diode event predicted inside the step: the step ends there when its
             // current is within 1e-9 A of zero (as the search after a step accepts).
-            let zero = self.predict_diode(&x0, &f0, t1 - t0, b0);
-            let mut x1 = self.integrate_from(&x0, zero.map_or(t1 - t0, |z| z.0), b0, &f0);
+            let h = t1 - t0;
+            let cand = self.diode_candidate(&x0, &f0, h);
+            let built = cand.and_then(|_| self.step_response(&x0, &f0, h, b0));
+            let zero = match (cand, &built) {
+                (Some(p), Some(b)) => Self::diode_zero(b, x0[p.index()], p, h).map(|t| (t, p)),
+                _ => None,
+            };
+            let mut x1 = match &built {
+                Some(b) => self.flow_built(&x0, zero.map_or(h, |z| z.0), &f0, b),
+                None => self.integrate_from(&x0, h, b0, &f0),
+            };
             let predicted = zero.filter(|&(_, p)| x1[p.index()].abs() < 1e-9);
-            match (zero, predicted) {
-                (_, Some((h, _))) => t1 = t0 + h,
-                (Some(_), None) => x1 = self.integrate_from(&x0, t1 - t0, b0, &f0),
-                (None, None) => {}
+            match (zero, predicted, &built) {
+                (_, Some((hz, _)), _) => t1 = t0 + hz,
+                (Some(_), None, Some(b)) => x1 = self.flow_built(&x0, h, &f0, b),
+                _ => {}
             }
             let (mut s1, mut sc1) = self.solution_at(&x1, b0);
             let mut event = predicted.map(|(_, p)| p);
@@ -1460,6 +1506,16 @@ impl BldcPlant {
             known = Some(after);
         }
     }
+}
+
+/// A step's modal response as the diode prediction built it, over the step's full length,
+/// for the step's integration to reuse: sin θ and cos θ at its start, the forcing's Ω
+/// [rad/s].
+struct Built<'a> {
+    rsp: Response<'a>,
+    md: &'a Modal,
+    sc0: (f64, f64),
+    omega: f64,
 }
 
 /// The network's affine and modal forms for one conduction state, and its legs decoded
