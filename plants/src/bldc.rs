@@ -1020,6 +1020,7 @@ impl BldcPlant {
         let (g, a) = rsp.start_rates(k, sc0, omega);
         let disc = g * g - 2.0 * a * i0;
         let mut t = 2.0 * i0 / (-g + g.signum() * -disc.sqrt());
+        let mut last = (0.0, g);
         for _ in 0..8 {
             if !(0.0..=h).contains(&t) {
                 return None; // beyond the step (or NaN): the step as usual
@@ -1027,11 +1028,16 @@ impl BldcPlant {
             let (rs, rc) = emf::rotation(omega * t);
             let sc = (sc0.0 * rc + sc0.1 * rs, sc0.1 * rc - sc0.0 * rs);
             let (i, di) = rsp.current_and_rate(k, t, sc, omega, md.decays(t));
+            // The curvature here, at least the start's: by the start's alone, a current
+            // that dips towards zero where it bends harder and turns back unreversed could
+            // pass for a zero (f64::max drops a NaN from t = last.0).
+            let bend = a.abs().max(((di - last.1) / (t - last.0)).abs());
+            last = (t, di);
             let dt = i / di;
             t -= dt;
-            // Newton's error after this correction, ≈ a·dt²/2 in current \[A\]: far below
-            // the 1e-9 A the step's end must meet.
-            if 0.5 * a.abs() * dt * dt < 1e-12 {
+            // Newton's error after this correction, ≈ bend·dt²/2 in current \[A\]: far
+            // below the 1e-9 A the step's end must meet.
+            if 0.5 * bend * dt * dt < 1e-12 {
                 return (0.0..=h).contains(&t).then_some(t);
             }
         }
