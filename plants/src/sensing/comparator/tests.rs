@@ -592,3 +592,137 @@ fn filters_settle_to_the_input_and_the_output_follows_its_sign() {
     let out = c.outputs_at(Ticks(1000));
     assert!(out.u && !out.v && out.w, "{out:?}");
 }
+
+/// The tick walk ([`Front::walk`]: two ticks a step on two lanes, stepped by two ticks'
+/// factors) decides every tick as the signal evaluated tick by tick with exp and sin does:
+/// s(τ) = P(τ) + noise + A·e^{−τ/τp} − B·e^{−τ/τn} + Im(z·e^{(−1/τr + jω)(t − t_z)}) \[V\]
+/// against ±h/2, over noise segments of 7 and 8 ticks (so pairs start on either parity)
+/// with filter transients and ringing. The brute-force test above walks mostly single
+/// ticks (its noise changes every tick); this one walks long segments, with a pair whose
+/// two ticks both toggle. And the LINEAR loop (P as c0 + τ·c1) records what the cubic
+/// one does for a P without τ² and τ³ terms.
+#[test]
+fn the_paired_tick_walk_decides_each_tick_as_a_scalar_evaluation_does() {
+    // Without hysteresis and with ringing near Nyquist (2.2 ticks a period), a tick
+    // between two of the other sign toggles twice in a row; with a 2 mV band and slower
+    // ringing, the band matters.
+    let mut both_in_pair = 0;
+    for (hyst, ring_hz) in [(0.0, 23e6), (2e-3, 3.1e6)] {
+        let p = ComparatorParams {
+            offset_v: Abc::splat(0.0),
+            hysteresis_v: hyst,
+            ring_frequency_hz: ring_hz,
+            ring_decay_s: 2e-6, // 100 ticks: the ringing lasts over the whole walk
+            ..ComparatorParams::default()
+        };
+        let (tp, tn, tr) = (p.phase_filter_tau_s, p.neutral_filter_tau_s, p.ring_decay_s);
+        let w = TAU * ring_hz;
+        // Ringing excited at tick 40 [V], the step from 0.37 ticks before tick 50 [s].
+        let (rk, z) = (40u64, (4e-3, -7e-3));
+        let (k_s, t0) = (50u64, 49.63 * TICK_S);
+        let front = || {
+            let mut f = ComparatorBank::new(&p, 3, &Abc::splat(0.0), 0.0).front;
+            f.ring = Ring {
+                z,
+                t: tick_instant(rk),
+                k: rk,
+                mag: z.0.hypot(z.1),
+            };
+            f
+        };
+        let tau_s = tick_instant(k_s) - t0;
+        // A and B [V] at τ = 0: their difference decays slowly (τp ≠ τn).
+        let (a, b) = (0.02, 0.015);
+        // P [V, V/s, V/s², V/s³]: −4 mV rising by 12 mV over the walk's 6 µs, bent.
+        for poly in [[-4e-3, 2e3, -2e8, 1e13], [-4e-3, 2e3, 0.0, 0.0]] {
+            let c = Channel {
+                x: Phase::U,
+                t0,
+                k_s,
+                base: ((-tau_s / tp).exp(), (-tau_s / tn).exp()),
+                poly,
+                beta: 0.0,
+                dev: (0.0, 0.0),
+                a,
+                b,
+                ap: a / tp,
+                bn: b / tn,
+                stationary: std::cell::Cell::new(None),
+            };
+            // 40 segments of 7 and 8 ticks, each with its own noise sample (±1 mV).
+            let key = noise::channel_key(5, 0);
+            let mut segs = Vec::new();
+            let mut k = k_s;
+            for m in 0..40 {
+                let n = 7 + m % 2;
+                segs.push((k, k + n - 1, noise::uniform_keyed(key, m, 1e-3)));
+                k += n;
+            }
+            let mut f = front();
+            for &(k, last, noise) in &segs {
+                f.walk(&c, k, last, noise);
+            }
+            let hist: Vec<_> = f.hist[0].toggles.iter().copied().collect();
+            let out_at = |k: u64| hist.iter().rev().find(|t| t.0 <= k).is_some_and(|t| t.1);
+            assert!(hist.len() > 10, "few toggles: {}", hist.len());
+            assert!(hist.iter().all(|t| (k_s..k).contains(&t.0)));
+            assert_eq!(f.out.u, out_at(k));
+            // Each tick from the walk's output before it: a tick too close to call (the
+            // lanes' rounding differs from this evaluation's) is skipped without letting
+            // the comparison drift.
+            let mut skipped = 0;
+            for &(k0, last, noise) in &segs {
+                for k in k0..=last {
+                    let tau = k as f64 * TICK_S - t0;
+                    let dt = (k - rk) as f64 * TICK_S;
+                    let terms = [
+                        horner(&poly, tau) + noise,
+                        a * (-tau / tp).exp(),
+                        -b * (-tau / tn).exp(),
+                        (-dt / tr).exp() * (z.0 * (w * dt).sin() + z.1 * (w * dt).cos()),
+                    ];
+                    let s: f64 = terms.iter().sum();
+                    let before = out_at(k - 1);
+                    let margin = if before { -s } else { s } - hyst / 2.0;
+                    if margin.abs() <= 1e-12 * terms.iter().map(|t| t.abs()).sum::<f64>() {
+                        skipped += 1;
+                        continue;
+                    }
+                    let want = before != (margin > 0.0);
+                    assert_eq!(out_at(k), want, "tick {k}, h {hyst} V, P {poly:?}");
+                }
+                // Pairs start at the segment's first tick.
+                both_in_pair += (k0..last)
+                    .step_by(2)
+                    .filter(|&j| out_at(j) != out_at(j - 1) && out_at(j + 1) != out_at(j))
+                    .count();
+            }
+            assert!(skipped < 3, "{skipped} ticks too close to call");
+        }
+        // A linear P: both loops, with and without ringing, over 301 ticks (an odd one
+        // left after the pairs), record the same toggles.
+        let poly = [-4e-3, 2e3, 0.0, 0.0];
+        let f = front();
+        let e = (a * (-tau_s / tp).exp(), b * (-tau_s / tn).exp());
+        for zk in [f.ring_at(k_s), (0.0, 0.0)] {
+            let from = (k_s, tau_s, e, zk);
+            let last = k_s + 300;
+            let (mut lin, mut cub) = (f.clone(), f.clone());
+            let (o_lin, o_cub) = if zk == (0.0, 0.0) {
+                (
+                    lin.walk_ticks::<false, true>(Phase::U, from, last, &poly),
+                    cub.walk_ticks::<false, false>(Phase::U, from, last, &poly),
+                )
+            } else {
+                (
+                    lin.walk_ticks::<true, true>(Phase::U, from, last, &poly),
+                    cub.walk_ticks::<true, false>(Phase::U, from, last, &poly),
+                )
+            };
+            assert_eq!(o_lin, o_cub);
+            assert!(!lin.hist[0].toggles.is_empty());
+            assert_eq!(lin.hist[0].toggles, cub.hist[0].toggles, "ringing {zk:?}");
+        }
+    }
+    assert!(both_in_pair > 0, "no pair with both ticks toggling");
+}
