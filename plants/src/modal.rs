@@ -180,7 +180,10 @@ pub struct Response<'a> {
 
 /// The back-EMF over a step: amplitude per unit shape λr·(ωm0 + α·t + α′·t²/2) =
 /// `amp + slope·t + quad·t²` \[V\], and the true angle's lead over φ0 + Ω·t,
-/// δ(t) = d1·t + d2·t² \[rad\].
+/// δ(t) = d1·t + d2·t² \[rad\]. Only the split between Ω and δ depends on the step's
+/// length h: Ω·t + δ(t) = pp·(ωm0·t + α·t²/2) whatever h, and |δ| ≤ pp·|α|·h²/8 on
+/// [0, h]; so a forcing built for h serves any shorter step within it to first order in
+/// δ, as the step to a diode's predicted zero uses it.
 #[derive(Copy, Clone, Debug)]
 pub struct Forcing {
     /// Ω [rad/s].
