@@ -553,8 +553,8 @@ impl BldcPlant {
     }
 
     /// A step of `h` from `x` (derivative `k1`) on a modal response already built for it.
-    fn flow_built(&self, x: &State, h: f64, k1: &State, b: &Built) -> State {
-        self.flow_with(b.md, &self.form().0, x, h, k1, b.sc0, &b.rsp, b.omega)
+    fn flow_built(&self, x: &State, h: f64, k1: &State, b: &StepResponse) -> State {
+        self.flow_with(b.md, &self.form().0, x, h, k1, b.sc0, &b.rsp, b.omega_e)
     }
 
     /// A step by the modal form `md` (see [`crate::modal`]): the currents exactly for the
@@ -597,7 +597,9 @@ impl BldcPlant {
         let w2 = w0 + 0.5 * h * k1[OMEGA];
         let half = md.decays(0.5 * h);
         let full = [half[0] * half[0], half[1] * half[1]];
-        // The angles at mid-step and at the end: two rotations by Ω·h/2.
+        // The response's angles φ0 + Ω·t at mid-step and at the end, two rotations by
+        // Ω·h/2 (the true angle leads them by δ(t); zero at the end of the step the
+        // forcing was built for, within pp·|α|·h²/8 on a shorter one).
         let (rs, rc) = emf::rotation(0.5 * h * omega_e);
         let rotate = |(s, c): (f64, f64)| (s * rc + c * rs, c * rc - s * rs);
         let sc_m = rotate(sc0);
@@ -634,7 +636,7 @@ impl BldcPlant {
     /// The back-EMF's forcing of a step of `h` from `x` (derivative `k1`, sin θ and cos θ
     /// `sc0`) for the modal response: it follows the speed through the step, amplitude
     /// λr·(ωm0 + α·t + α′·t²/2), and the angle leads φ0 + Ω·t by pp·α·(t² − h·t)/2, with
-    /// Ω the mid-step electrical speed.
+    /// Ω the electrical speed at the middle of the step of `h` it is built for.
     #[inline(always)]
     fn forcing(&self, x: &State, h: f64, k1: &State, sc0: (f64, f64)) -> Forcing {
         let kl = self.lambda * self.pp;
@@ -981,16 +983,16 @@ impl BldcPlant {
         f0: &State,
         h: f64,
         base: (f64, f64, f64),
-    ) -> Option<Built<'_>> {
+    ) -> Option<StepResponse<'_>> {
         let (_, md, _) = self.form();
         let md = md.as_ref().filter(|_| self.modal)?;
         let sc0 = emf::sin_cos_near(x0[THETA], base);
         let forcing = self.forcing(x0, h, f0, sc0);
-        Some(Built {
+        Some(StepResponse {
             rsp: Response::new(md, &[x0[0], x0[1], x0[2]], sc0, &forcing),
             md,
             sc0,
-            omega: forcing.omega,
+            omega_e: forcing.omega,
         })
     }
 
@@ -998,13 +1000,14 @@ impl BldcPlant {
     /// the step's response `b` within the step of `h` \[s\]: a diode event predicted before
     /// the step is integrated, so that it is not integrated past it. `None` where that
     /// zero or the iteration leaves the step.
+    /// Out of line: inlined into the step loop it measured worse.
     #[inline(never)]
-    fn diode_zero(b: &Built, i0: f64, p: Phase, h: f64) -> Option<f64> {
-        Self::newton_zero(b.md, &b.rsp, i0, p.index(), b.sc0, b.omega, h)
+    fn diode_zero(b: &StepResponse, i0: f64, p: Phase, h: f64) -> Option<f64> {
+        Self::newton_zero(b.md, &b.rsp, i0, p.index(), b.sc0, b.omega_e, h)
     }
 
     /// The zero of phase `k`'s current on `rsp` (starting at `i0` \[A\], sin θ and cos θ
-    /// `sc0`, the forcing's Ω `omega` [rad/s]) within a step of `h` \[s\], by Newton's
+    /// `sc0`, the forcing's Ω `omega_e` [rad/s]) within a step of `h` \[s\], by Newton's
     /// method from the zero of its quadratic Taylor polynomial at the start.
     #[inline(always)]
     fn newton_zero(
@@ -1013,11 +1016,11 @@ impl BldcPlant {
         i0: f64,
         k: usize,
         sc0: (f64, f64),
-        omega: f64,
+        omega_e: f64,
         h: f64,
     ) -> Option<f64> {
         // The zero of i0 + g·t + a·t²/2, the nearer root in its stable form.
-        let (g, a) = rsp.start_rates(k, sc0, omega);
+        let (g, a) = rsp.start_rates(k, sc0, omega_e);
         let disc = g * g - 2.0 * a * i0;
         let mut t = 2.0 * i0 / (-g + g.signum() * -disc.sqrt());
         let mut last = (0.0, g);
@@ -1025,19 +1028,20 @@ impl BldcPlant {
             if !(0.0..=h).contains(&t) {
                 return None; // beyond the step (or NaN): the step as usual
             }
-            let (rs, rc) = emf::rotation(omega * t);
+            let (rs, rc) = emf::rotation(omega_e * t);
             let sc = (sc0.0 * rc + sc0.1 * rs, sc0.1 * rc - sc0.0 * rs);
-            let (i, di) = rsp.current_and_rate(k, t, sc, omega, md.decays(t));
-            // The curvature here, at least the start's: by the start's alone, a current
-            // that dips towards zero where it bends harder and turns back unreversed could
-            // pass for a zero (f64::max drops a NaN from t = last.0).
-            let bend = a.abs().max(((di - last.1) / (t - last.0)).abs());
+            let (i, di) = rsp.current_and_rate(k, t, sc, omega_e, md.decays(t));
+            // The curvature [A/s²]: the mean since the last iterate, at least the start's.
+            // By the start's alone, a current that dips towards zero where it bends harder
+            // and turns back unreversed could pass for a zero. (f64::max drops the NaN of
+            // t = last.0; an infinite one stops nothing, and the search gives up.)
+            let curv = a.abs().max(((di - last.1) / (t - last.0)).abs());
             last = (t, di);
             let dt = i / di;
             t -= dt;
-            // Newton's error after this correction, ≈ bend·dt²/2 in current \[A\]: far
+            // Newton's error after this correction, ≈ curv·dt²/2 in current \[A\]: far
             // below the 1e-9 A the step's end must meet.
-            if 0.5 * bend * dt * dt < 1e-12 {
+            if 0.5 * curv * dt * dt < 1e-12 {
                 return (0.0..=h).contains(&t).then_some(t);
             }
         }
@@ -1429,7 +1433,9 @@ impl BldcPlant {
             };
             let f0 = self.end_derivative(&x0, &self.start, angle);
             // A diode event predicted inside the step: the step ends there when its
-            // current is within 1e-9 A of zero (as the search after a step accepts).
+            // current is within 1e-9 A of zero (as the search after a step accepts). The
+            // step runs on the response Newton searched, so this only catches a search
+            // stopped short, with 1000× the room of its 1e-12 A stop.
             let h = t1 - t0;
             let cand = self.diode_candidate(&x0, &f0, h);
             let built = cand.and_then(|_| self.step_response(&x0, &f0, h, b0));
@@ -1445,7 +1451,7 @@ impl BldcPlant {
             match (zero, predicted, &built) {
                 (_, Some((hz, _)), _) => t1 = t0 + hz,
                 (Some(_), None, Some(b)) => x1 = self.flow_built(&x0, h, &f0, b),
-                _ => {}
+                _ => {} // no zero predicted (a predicted zero implies a built response)
             }
             let (mut s1, mut sc1) = self.solution_at(&x1, b0);
             let mut event = predicted.map(|(_, p)| p);
@@ -1463,12 +1469,12 @@ impl BldcPlant {
             }
             let found = self.first_event(&step, &s1, b0);
             self.muted = muted;
-            if let Some((h, p, at)) = found {
+            if let Some((h_ev, p, at)) = found {
                 // The step to the event is integrated (not interpolated), so the energy
                 // integrals stay consistent with the currents.
-                x1 = at.unwrap_or_else(|| self.integrate_from(&x0, h, b0, &f0));
+                x1 = at.unwrap_or_else(|| self.integrate_from(&x0, h_ev, b0, &f0));
                 (s1, sc1) = self.solution_at(&x1, b0);
-                t1 = t0 + h;
+                t1 = t0 + h_ev;
                 event = Some(p);
             }
             self.cmp.forget_history(Ticks::at_or_before(t0), unreported);
@@ -1515,13 +1521,15 @@ impl BldcPlant {
 }
 
 /// A step's modal response as the diode prediction built it, over the step's full length,
-/// for the step's integration to reuse: sin θ and cos θ at its start, the forcing's Ω
-/// [rad/s].
-struct Built<'a> {
+/// for the step's integration to reuse.
+struct StepResponse<'a> {
     rsp: Response<'a>,
+    /// The modal form it was built on.
     md: &'a Modal,
+    /// sin θ and cos θ at the step's start.
     sc0: (f64, f64),
-    omega: f64,
+    /// The forcing's Ω \[rad/s\] (electrical, at the full step's middle).
+    omega_e: f64,
 }
 
 /// The network's affine and modal forms for one conduction state, and its legs decoded
