@@ -484,8 +484,9 @@ impl ComparatorBank {
                 }
             }
         }
-        let rec = self.front.record(t0, t1, k0, k1);
-        self.records.push(rec)
+        let (seq, slot) = self.records.push_slot();
+        self.front.record(t0, t1, k0, k1, slot);
+        seq
     }
 
     /// Decides what channel `x` left undecided (its recorded steps from `dormant[x]` on)
@@ -1050,10 +1051,10 @@ impl Front {
         }
     }
 
-    /// The step [t0, t1] with terminal and neutral voltages interpolated between `k0` and
-    /// `k1`, from the filters' present state (see [`Record`]). A ringing decayed below a
-    /// nanovolt is dropped first, so that bounds skip the envelope.
-    fn record(&mut self, t0: f64, t1: f64, k0: &Knot, k1: &Knot) -> Record {
+    /// Writes into `rec` the step [t0, t1] with terminal and neutral voltages interpolated
+    /// between `k0` and `k1`, from the filters' present state (see [`Record`]). A ringing
+    /// decayed below a nanovolt is dropped first, so that bounds skip the envelope.
+    fn record(&mut self, t0: f64, t1: f64, k0: &Knot, k1: &Knot, rec: &mut Record) {
         let h = t1 - t0;
         if self.ring.mag != 0.0 && self.ring_envelope(t0) < 1e-9 {
             self.ring.z = (0.0, 0.0);
@@ -1086,28 +1087,29 @@ impl Front {
         let (r0, r1) = (k0.emf_rate.to_array(), k1.emf_rate.to_array());
         let y = self.y.to_array();
         let chord: [f64; 3] = std::array::from_fn(|j| (v1[j] - v0[j]) * inv_h);
-        Record {
-            t0,
-            h,
-            k_start,
-            k_end: Ticks::at_or_before(t1).0,
-            fx: std::array::from_fn(|j| Foh::ramp(y[j], v0[j], chord[j], self.tau_p)),
-            // A floating leg's input is the neutral's chord plus its back-EMF's Hermite
-            // cubic: its chord plus a cubic vanishing at both ends, filtered from rest.
-            bend: std::array::from_fn(|j| match (r0[j], r1[j]) {
-                (Some(d0), Some(d1)) => {
-                    let (a, b) = (dvn + d0 - chord[j], dvn + d1 - chord[j]);
-                    let q = hermite(inv_h, (0.0, a), (0.0, b));
-                    Some(Bend::new(&CubicRc::new(0.0, 0.0, q, self.tau_p)))
-                }
-                _ => None,
-            }),
-            fn_,
-            eh: (self.decay_cache.1, self.decay_cache.2),
-            first,
-            env_first: self.ring_envelope_at(k_start),
-            ring: self.ring,
+        // Field by field: a whole `Record` assigned is built apart and copied in.
+        rec.t0 = t0;
+        rec.h = h;
+        rec.k_start = k_start;
+        rec.k_end = Ticks::at_or_before(t1).0;
+        for j in 0..3 {
+            rec.fx[j] = Foh::ramp(y[j], v0[j], chord[j], self.tau_p);
         }
+        // A floating leg's input is the neutral's chord plus its back-EMF's Hermite
+        // cubic: its chord plus a cubic vanishing at both ends, filtered from rest.
+        rec.bend = std::array::from_fn(|j| match (r0[j], r1[j]) {
+            (Some(d0), Some(d1)) => {
+                let (a, b) = (dvn + d0 - chord[j], dvn + d1 - chord[j]);
+                let q = hermite(inv_h, (0.0, a), (0.0, b));
+                Some(Bend::new(&CubicRc::new(0.0, 0.0, q, self.tau_p)))
+            }
+            _ => None,
+        });
+        rec.fn_ = fn_;
+        rec.eh = (self.decay_cache.1, self.decay_cache.2);
+        rec.first = first;
+        rec.env_first = self.ring_envelope_at(k_start);
+        rec.ring = self.ring;
     }
 
     /// Channel `x` over recorded step `rec`, its first tick and the decays there set.
