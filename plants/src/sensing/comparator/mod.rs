@@ -1110,6 +1110,21 @@ impl Front {
         rec.first = first;
         rec.env_first = self.ring_envelope_at(k_start);
         rec.ring = self.ring;
+        // Every field above, or the slot keeps an older step's value: this pattern names
+        // them all, so a field added to `Record` fails to compile until written here.
+        let Record {
+            t0: _,
+            h: _,
+            k_start: _,
+            k_end: _,
+            fx: _,
+            bend: _,
+            fn_: _,
+            eh: _,
+            first: _,
+            ring: _,
+            env_first: _,
+        } = rec;
     }
 
     /// Channel `x` over recorded step `rec`, its first tick and the decays there set.
