@@ -180,7 +180,10 @@ pub struct Response<'a> {
 
 /// The back-EMF over a step: amplitude per unit shape λr·(ωm0 + α·t + α′·t²/2) =
 /// `amp + slope·t + quad·t²` \[V\], and the true angle's lead over φ0 + Ω·t,
-/// δ(t) = d1·t + d2·t² \[rad\].
+/// δ(t) = d1·t + d2·t² \[rad\]. Only the split between Ω and δ depends on the step's
+/// length h: Ω·t + δ(t) = pp·(ωm0·t + α·t²/2) whatever h, and |δ| ≤ pp·|α|·h²/8 on
+/// [0, h]; so a forcing built for h serves any shorter step within it to first order in
+/// δ, as the step to a diode's predicted zero uses it.
 #[derive(Copy, Clone, Debug)]
 pub struct Forcing {
     /// Ω [rad/s].
@@ -257,6 +260,53 @@ impl<'a> Response<'a> {
         }
         i
     }
+
+    /// The first and second time derivatives [A/s, A/s²] of phase `k`'s current at the
+    /// step's start, where the angle's sine and cosine are (`s`, `c`), advancing at
+    /// `omega` [rad/s]: with ps = P0 + P1·t + P2·t² and rc likewise, z″ = (ps″ − 2Ω·rc′ −
+    /// Ω²·ps)·sin φ + (rc″ + 2Ω·ps′ − Ω²·rc)·cos φ + λ²·e^{λt}·tr, at t = 0.
+    pub fn start_rates(&self, k: usize, (s, c): (f64, f64), omega: f64) -> (f64, f64) {
+        let (mut di, mut ddi) = (0.0, 0.0);
+        for j in 0..self.md.m {
+            let (p, r, l, tr) = (self.p[j], self.r[j], self.md.lambda[j], self.tr[j]);
+            let dz = (p[1] - omega * r[0]) * s + (r[1] + omega * p[0]) * c + l * tr;
+            let ddz = (2.0 * p[2] - 2.0 * omega * r[1] - omega * omega * p[0]) * s
+                + (2.0 * r[2] + 2.0 * omega * p[1] - omega * omega * r[0]) * c
+                + l * l * tr;
+            di += dz * self.md.w[j][k];
+            ddi += ddz * self.md.w[j][k];
+        }
+        (di, ddi)
+    }
+
+    /// Phase `k`'s current \[A\] and its rate [A/s] at time `t` into the step, where the
+    /// angle's sine and cosine are (`s`, `c`), advancing at `omega` [rad/s] (the forcing's
+    /// Ω), and the modes have decayed by `decays`: [`Response::currents`] and its time
+    /// derivative, for Newton's method on one current.
+    pub fn current_and_rate(
+        &self,
+        k: usize,
+        t: f64,
+        (s, c): (f64, f64),
+        omega: f64,
+        decays: [f64; 2],
+    ) -> (f64, f64) {
+        let (mut i, mut di) = (self.perp[k], 0.0);
+        for (j, d) in decays.iter().enumerate().take(self.md.m) {
+            let (p, r) = (self.p[j], self.r[j]);
+            let ps = p[0] + t * (p[1] + t * p[2]);
+            let rc = r[0] + t * (r[1] + t * r[2]);
+            let (dps, drc) = (p[1] + 2.0 * t * p[2], r[1] + 2.0 * t * r[2]);
+            let z = self.md.zc[j] + ps * s + rc * c + d * self.tr[j];
+            // d/dt of ps·sin φ + rc·cos φ + e^{λt}·tr, with dφ/dt = Ω.
+            let dz = (dps - omega * rc) * s
+                + (drc + omega * ps) * c
+                + self.md.lambda[j] * d * self.tr[j];
+            i += z * self.md.w[j][k];
+            di += dz * self.md.w[j][k];
+        }
+        (i, di)
+    }
 }
 
 #[cfg(test)]
@@ -289,6 +339,59 @@ mod tests {
                     let want = if i == j { 1.0 } else { 0.0 };
                     assert!((dot(&md.w[i], &w) - want).abs() < 1e-12);
                 }
+            }
+        }
+    }
+
+    /// A phase's current and its first two time derivatives, as Newton's method on a
+    /// diode's zero takes them, match the response's own currents and their central differences in
+    /// a freewheeling state (three phases, two modes) under a speed-varying forcing.
+    #[test]
+    fn a_phase_current_s_rates_match_the_response_s_differences() {
+        let c = Circuit::new(&MotorParams::default(), &PowerStageParams::default());
+        let modes = Abc {
+            u: Conduction::SwitchHigh,
+            v: Conduction::SwitchLow,
+            w: Conduction::DiodeLow,
+        };
+        let md = Modal::new(&modes, &c.linearise(&modes)).expect("a modal form");
+        assert_eq!(md.m, 2);
+        let th0: f64 = 0.7;
+        let f = Forcing {
+            omega: 2000.0,
+            amp: 1.5,
+            slope: 300.0,
+            quad: 4e5,
+            d1: -0.01,
+            d2: 500.0,
+        };
+        let sc0 = th0.sin_cos();
+        let rsp = Response::new(&md, &[0.3, -0.5, 0.2], sc0, &f);
+        // The current of phase k at t [s], from the response at the angle φ0 + Ω·t.
+        let at = |k: usize, t: f64| {
+            let (s, c) = (th0 + f.omega * t).sin_cos();
+            rsp.currents(t, (s, c), md.decays(t))[k]
+        };
+        let dt = 1e-7;
+        for k in 0..3 {
+            let (d1, d2) = rsp.start_rates(k, sc0, f.omega);
+            let rate = |t: f64| {
+                let (s, c) = (th0 + f.omega * t).sin_cos();
+                rsp.current_and_rate(k, t, (s, c), f.omega, md.decays(t)).1
+            };
+            // Central differences (the response extends to t < 0 by its formula).
+            let fd1 = (at(k, dt) - at(k, -dt)) / (2.0 * dt);
+            let fd2 = (rate(dt) - rate(-dt)) / (2.0 * dt);
+            let near = |x: f64, y: f64, rel: f64| (x - y).abs() <= rel * x.abs().max(1.0);
+            assert!(near(d1, rate(0.0), 1e-9), "{k}: {d1} vs {}", rate(0.0));
+            assert!(near(d1, fd1, 1e-4), "{k}: {d1} vs {fd1}");
+            assert!(near(d2, fd2, 1e-4), "{k}: {d2} vs {fd2}");
+            for t in [3e-6, 2e-5] {
+                let (s, c) = (th0 + f.omega * t).sin_cos();
+                let (i, di) = rsp.current_and_rate(k, t, (s, c), f.omega, md.decays(t));
+                assert_eq!(i, at(k, t));
+                let fd = (at(k, t + dt) - at(k, t - dt)) / (2.0 * dt);
+                assert!(near(di, fd, 1e-4), "{k} at {t}: {di} vs {fd}");
             }
         }
     }
