@@ -13,7 +13,6 @@
 use super::rc::{CubicRc, ExpTable};
 use crate::params::CurrentSenseParams;
 use drive_core::{TICK_S, Ticks};
-use std::collections::VecDeque;
 
 mod state;
 
@@ -30,10 +29,17 @@ pub struct CurrentSense {
     full_scale: f64,
     conv: u64,
     y: f64,
-    /// The latest conversions as (readable from tick, code), newest last: every one taken
-    /// over the longest update, since an update may run ahead of the instants read.
-    results: VecDeque<(u64, u16)>,
+    /// The latest conversions' codes in a ring by sample number n mod its length (sample n
+    /// taken at n·T_conv, readable from (n + 1)·T_conv): the `held` newest, n up to
+    /// `next_n` − 1, and at most `keep` of them (every one taken over the longest update,
+    /// since an update may run ahead of the instants read). Samples are taken back to back,
+    /// so the codes alone say which conversion is readable when.
+    codes_ring: Box<[u16]>,
+    held: usize,
+    keep: usize,
     next_sample: u64,
+    /// `next_sample` / T_conv: the next sample's number.
+    next_n: u64,
     /// The last update's filter pieces and start \[s\], to cut it short.
     last: (Pieces, f64),
 }
@@ -67,6 +73,7 @@ impl CurrentSense {
     pub fn new(p: &CurrentSenseParams, shunt_ohm: f64, longest_update_s: f64) -> Self {
         let conv = p.conversion().0;
         let per_update = (longest_update_s / TICK_S / conv as f64).ceil() as usize;
+        let keep = per_update + 4;
         let tau = 1.0 / (std::f64::consts::TAU * p.filter_cutoff_hz);
         CurrentSense {
             volts_per_amp: shunt_ohm * p.amplifier_gain,
@@ -78,8 +85,12 @@ impl CurrentSense {
             full_scale: p.adc_full_scale_v,
             conv,
             y: 0.0,
-            results: VecDeque::with_capacity(per_update + 4),
+            // A power of two, so that the slot is a mask of the sample number.
+            codes_ring: vec![0; keep.next_power_of_two()].into_boxed_slice(),
+            held: 0,
+            keep,
             next_sample: conv,
+            next_n: 1,
             last: (
                 Pieces {
                     seg: [CubicRc::new(0.0, 0.0, [0.0; 4], 1.0); 7],
@@ -277,17 +288,17 @@ impl CurrentSense {
         self.set_pieces(h, start, end);
         self.last.1 = t0;
         let k_end = Ticks::at_or_before(t1).0;
+        let mask = self.codes_ring.len() - 1;
         while self.next_sample <= k_end {
             let code = self.quantise(
                 self.last
                     .0
                     .at(Ticks(self.next_sample).seconds() - t0, &self.decay),
             );
-            if self.results.len() == self.results.capacity() {
-                self.results.pop_front();
-            }
-            self.results.push_back((self.next_sample + self.conv, code));
+            self.codes_ring[self.next_n as usize & mask] = code;
+            self.held = (self.held + 1).min(self.keep);
             self.next_sample += self.conv;
+            self.next_n += 1;
         }
         self.y = self.last.0.y_end;
     }
@@ -298,19 +309,24 @@ impl CurrentSense {
         let (pieces, t0) = &self.last;
         self.y = pieces.at(t - t0, &self.decay);
         let k = Ticks::at_or_before(t).0;
-        while self.results.back().is_some_and(|r| r.0 - self.conv > k) {
-            self.results.pop_back();
-        }
-        self.next_sample = (k / self.conv + 1) * self.conv;
+        // The samples after t, n·T_conv > t, are forgotten.
+        let next_n = k / self.conv + 1;
+        let forgotten = self.next_n.saturating_sub(next_n);
+        self.held = self.held.saturating_sub(usize::try_from(forgotten).unwrap_or(usize::MAX));
+        self.next_n = next_n;
+        self.next_sample = next_n * self.conv;
     }
 
-    /// The latest conversion readable at `at` (which may lie a few conversions back).
+    /// The latest conversion readable at `at` (which may lie a few conversions back), 0
+    /// before the first.
     pub fn code_at(&self, at: Ticks) -> u16 {
-        self.results
-            .iter()
-            .rev()
-            .find(|r| r.0 <= at.0)
-            .map_or(0, |r| r.1)
+        // Sample n is readable from (n + 1)·T_conv: the newest readable taken is n = r − 1.
+        let r = (at.0 / self.conv).min(self.next_n);
+        // Held are the samples next_n − held ..= next_n − 1.
+        if r == 0 || r - 1 < self.next_n - self.held as u64 {
+            return 0;
+        }
+        self.codes_ring[(r - 1) as usize & (self.codes_ring.len() - 1)]
     }
 
     /// Amperes per ADC code (for converting readings back).
