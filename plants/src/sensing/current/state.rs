@@ -2,7 +2,7 @@
 //! filter, the conversions in the pipeline, the next sample and the last update's
 //! pieces. Gains, time constant and converter are parameters, never read back.
 
-use super::{CurrentSense, Pieces};
+use super::{CurrentSense, Pieces, UPDATES};
 use drive_core::state::{Persist, Reader, Writer, check};
 use drive_core::{Ticks, persist_fields};
 use std::collections::VecDeque;
@@ -11,13 +11,14 @@ persist_fields!(Pieces { seg, n, y_end });
 
 /// The filter, pipeline, next sample and last update; the rest are parameters. The
 /// pipeline is written as the conversions held, (readable from tick, code) oldest first,
-/// as a deque of them is.
+/// as a deque of them is, and the last update as its pieces and start.
 impl Persist for CurrentSense {
     fn save(&self, w: &mut Writer) {
         self.y.save(w);
         self.conversions().save(w);
         self.next_sample.save(w);
-        self.last.save(w);
+        let u = &self.updates[self.newest % UPDATES];
+        (u.pieces, u.t0).save(w);
     }
 
     fn restore(&mut self, r: &mut Reader) -> Result<(), String> {
@@ -25,7 +26,10 @@ impl Persist for CurrentSense {
         let mut results = VecDeque::<(u64, u16)>::new();
         r.field("results", &mut results)?;
         r.field("next_sample", &mut self.next_sample)?;
-        r.field("last", &mut self.last)?;
+        let u = &mut self.updates[self.newest % UPDATES];
+        let mut last = (u.pieces, u.t0);
+        r.field("last", &mut last)?;
+        (u.pieces, u.t0) = last;
         self.check_pieces()?;
         self.set_conversions(&results)
     }
@@ -34,14 +38,14 @@ impl Persist for CurrentSense {
 impl CurrentSense {
     /// The conversions held, (readable from tick, code), oldest first.
     fn conversions(&self) -> VecDeque<(u64, u16)> {
-        let mask = self.codes_ring.len() - 1;
         (self.next_n - self.held as u64..self.next_n)
-            .map(|n| ((n + 1) * self.conv, self.codes_ring[n as usize & mask]))
+            .map(|n| ((n + 1) * self.conv, self.code_of(n)))
             .collect()
     }
 
     /// Takes `results` (as [`CurrentSense::conversions`] gives them) into the ring, with
     /// `next_sample` restored: they must be back to back, the newest the one before it.
+    /// All are coded then, no update holding any.
     fn set_conversions(&mut self, results: &VecDeque<(u64, u16)>) -> Result<(), String> {
         let (ns, conv) = (self.next_sample, self.conv);
         check(ns % conv == 0 && ns > 0, || {
@@ -59,7 +63,9 @@ impl CurrentSense {
         for (j, &(at, _)) in results.iter().enumerate() {
             let want = (first + j as u64 + 1) * conv;
             check(at == want, || {
-                format!("results[{j}].0 = {at} (rule: conversions back to back up to next_sample, here {want})")
+                format!(
+                    "results[{j}].0 = {at} (rule: conversions back to back up to next_sample, here {want})"
+                )
             })?;
         }
         let mask = self.codes_ring.len() - 1;
@@ -68,13 +74,18 @@ impl CurrentSense {
         }
         self.held = n;
         self.next_n = next_n;
+        self.coded_to = next_n;
+        for u in self.updates.iter_mut() {
+            (u.from, u.to) = (next_n, next_n);
+        }
         Ok(())
     }
 
     fn check_pieces(&self) -> Result<(), String> {
-        let n = self.last.0.n;
-        check((1..=self.last.0.seg.len()).contains(&n), || {
-            format!("last.n = {n} (rule: 1..={} pieces)", self.last.0.seg.len())
+        let last = &self.updates[self.newest % UPDATES].pieces;
+        let n = last.n;
+        check((1..=last.seg.len()).contains(&n), || {
+            format!("last.n = {n} (rule: 1..={} pieces)", last.seg.len())
         })
     }
 
