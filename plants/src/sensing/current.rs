@@ -151,7 +151,7 @@ impl CurrentSense {
         let g = self.volts_per_amp;
         let (y0, y1, m0, m1) = (g * i0, g * i1, g * d0 * h, g * d1 * h);
         let Some(c) = Self::one_side(self.max_v, (y0, m0), (y1, m1), h) else {
-            return self.search_pieces(h, (i0, d0), (i1, d1));
+            return self.search_pieces(h, (y0, m0), (y1, m1));
         };
         // What the search finds then: no cut, one piece over [0, h].
         let seg = CubicRc::new(0.0, self.y, c, self.tau);
@@ -162,15 +162,13 @@ impl CurrentSense {
     }
 
     /// [`CurrentSense::set_pieces`] by splitting the cubic into its monotone parts and
-    /// finding where each crosses a clip level.
-    fn search_pieces(&mut self, h: f64, (i0, d0): (f64, f64), (i1, d1): (f64, f64)) {
-        let g = self.volts_per_amp;
-        let (y0, y1, m0, m1) = (g * i0, g * i1, g * d0 * h, g * d1 * h);
+    /// finding where each crosses a clip level; the amplifier's output as there, its ends
+    /// `y0`, `y1` \[V\] and slopes `m0`, `m1` [V per update].
+    fn search_pieces(&mut self, h: f64, (y0, m0): (f64, f64), (y1, m1): (f64, f64)) {
         // In s = τ/h: v(s) = y0 + m0·s + c2·s² + c3·s³ [V].
-        let c2 = 3.0 * (y1 - y0) - 2.0 * m0 - m1;
-        let c3 = 2.0 * (y0 - y1) + m0 + m1;
+        let (c2, c3) = Self::hermite_terms((y0, m0), (y1, m1));
         let v = |s: f64| y0 + s * (m0 + s * (c2 + s * c3));
-        let coeffs = Self::coefficients(h, (y0, m0), (y1, m1));
+        let coeffs = Self::in_tau(h, y0, m0, (c2, c3));
         // Monotone parts: split at the roots of v′ = m0 + 2·c2·s + 3·c3·s².
         let mut cuts = [0.0, 1.0, 1.0, 1.0];
         let mut n_cuts = 1;
@@ -274,8 +272,19 @@ impl CurrentSense {
     /// V/s³\], from its ends `y0`, `y1` \[V\] and slopes `m0`, `m1` [V per update].
     #[inline(always)]
     fn coefficients(h: f64, (y0, m0): (f64, f64), (y1, m1): (f64, f64)) -> [f64; 4] {
-        let c2 = 3.0 * (y1 - y0) - 2.0 * m0 - m1;
-        let c3 = 2.0 * (y0 - y1) + m0 + m1;
+        Self::in_tau(h, y0, m0, Self::hermite_terms((y0, m0), (y1, m1)))
+    }
+
+    /// The Hermite cubic's s² and s³ coefficients (c2, c3) \[V\] in s = τ/h, from its
+    /// ends and slopes as in [`CurrentSense::coefficients`].
+    #[inline(always)]
+    fn hermite_terms((y0, m0): (f64, f64), (y1, m1): (f64, f64)) -> (f64, f64) {
+        (3.0 * (y1 - y0) - 2.0 * m0 - m1, 2.0 * (y0 - y1) + m0 + m1)
+    }
+
+    /// The cubic y0 + m0·s + c2·s² + c3·s³ in s = τ/h as coefficients in τ.
+    #[inline(always)]
+    fn in_tau(h: f64, y0: f64, m0: f64, (c2, c3): (f64, f64)) -> [f64; 4] {
         [y0, m0 / h, c2 / (h * h), c3 / (h * h * h)]
     }
 
@@ -452,8 +461,11 @@ mod tests {
             let (mut a, mut b) = (base.clone(), base.clone());
             a.y = unit();
             b.y = a.y;
+            // The amplifier's ends and slopes per update, as `set_pieces` makes them.
+            let g = a.volts_per_amp;
+            let (v0, v1) = ((g * start.0, g * start.1 * h), (g * end.0, g * end.1 * h));
             a.set_pieces(h, start, end);
-            b.search_pieces(h, start, end);
+            b.search_pieces(h, v0, v1);
             let (pa, pb) = (&a.updates[0].pieces, &b.updates[0].pieces);
             assert_eq!(pa.n, pb.n, "{start:?} {end:?} {h}");
             assert_eq!(pa.y_end.to_bits(), pb.y_end.to_bits());
@@ -463,15 +475,7 @@ mod tests {
             for (sa, sb) in pa.seg[..pa.n].iter().zip(&pb.seg[..pb.n]) {
                 assert_eq!(bits(sa), bits(sb));
             }
-            at_once += usize::from(
-                CurrentSense::one_side(
-                    a.max_v,
-                    (a.volts_per_amp * start.0, a.volts_per_amp * start.1 * h),
-                    (a.volts_per_amp * end.0, a.volts_per_amp * end.1 * h),
-                    h,
-                )
-                .is_some(),
-            );
+            at_once += usize::from(CurrentSense::one_side(a.max_v, v0, v1, h).is_some());
         }
         // Both paths were exercised.
         assert!(
