@@ -499,6 +499,9 @@ mod tests {
         };
         let mut eager = std::collections::BTreeMap::new();
         let (mut t, mut i) = (0.0, (0.2, 0.0));
+        // A chain restored midway, run alongside until the next is restored: it saves the
+        // same bytes at every update.
+        let mut copy: Option<CurrentSense> = None;
         for k in 0..20_000 {
             let h = match k % 3 {
                 0 => 40e-6 * unit(),
@@ -507,6 +510,12 @@ mod tests {
             };
             let next = (0.6 * unit() - 0.05, 4e4 * (unit() - 0.5));
             c.update(t, t + h, i, next);
+            if let Some(r) = copy.as_mut() {
+                r.update(t, t + h, i, next);
+            }
+            if let Some(r) = &copy {
+                assert_eq!(r.to_bytes().unwrap(), c.to_bytes().unwrap(), "update {k}");
+            }
             let u = &c.updates[c.newest % UPDATES];
             for n in u.from..u.to {
                 eager.insert(n, c.code_in(u, n));
@@ -515,6 +524,9 @@ mod tests {
             if k % 7 == 3 {
                 t -= h * unit();
                 c.truncate_at(t);
+                if let Some(r) = copy.as_mut() {
+                    r.truncate_at(t);
+                }
                 let k = Ticks::at_or_before(t).0;
                 eager.retain(|&n, _| n * c.conv <= k);
             }
@@ -539,6 +551,7 @@ mod tests {
                 r.restore_from(&c.to_bytes().unwrap()).unwrap();
                 assert_eq!(r.code_at(at), got);
                 assert_eq!(r.to_bytes().unwrap(), c.to_bytes().unwrap());
+                copy = Some(r);
             }
         }
     }

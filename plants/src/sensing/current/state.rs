@@ -3,11 +3,34 @@
 //! pieces. Gains, time constant and converter are parameters, never read back.
 
 use super::{CurrentSense, Pieces, UPDATES};
+use crate::sensing::rc::CubicRc;
+use drive_core::Ticks;
 use drive_core::state::{Persist, Reader, Writer, check};
-use drive_core::{Ticks, persist_fields};
 use std::collections::VecDeque;
 
-persist_fields!(Pieces { seg, n, y_end });
+/// The pieces in use, the others written as zeros: a slot's pieces beyond `n` are left
+/// from whichever update used it before, which a restored chain does not share.
+impl Persist for Pieces {
+    fn save(&self, w: &mut Writer) {
+        let unused = CubicRc {
+            p: [0.0; 4],
+            from: 0.0,
+            transient: 0.0,
+            tau: 0.0,
+        };
+        let seg: [CubicRc; 7] =
+            std::array::from_fn(|k| if k < self.n { self.seg[k] } else { unused });
+        seg.save(w);
+        self.n.save(w);
+        self.y_end.save(w);
+    }
+
+    fn restore(&mut self, r: &mut Reader) -> Result<(), String> {
+        r.field("seg", &mut self.seg)?;
+        r.field("n", &mut self.n)?;
+        r.field("y_end", &mut self.y_end)
+    }
+}
 
 /// The filter, pipeline, next sample and last update; the rest are parameters. The
 /// pipeline is written as the conversions held, (readable from tick, code) oldest first,
