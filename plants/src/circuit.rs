@@ -579,18 +579,24 @@ impl Circuit {
         });
         let mut k = state_index(&modes);
         solve(k, &modes, sol);
-        // Only an open leg may start conducting: with none (most re-resolves), done.
-        if Phase::ALL.into_iter().all(|p| modes.get(p).conducts()) {
+        // Only an open leg not kept open may start conducting: the others' terminals need
+        // no judging. As a mask of the legs (bit 0 for u), walked in phase order: most
+        // re-resolves have one such leg or none.
+        let kept = keep_open.map_or(0, |p| 1u8 << p.index());
+        let judged = |m: &Abc<Conduction>| {
+            let open = |p: Phase| u8::from(!m.get(p).conducts()) << p.index();
+            (open(Phase::U) | open(Phase::V) | open(Phase::W)) & !kept
+        };
+        let mut legs = judged(&modes);
+        if legs == 0 {
             return (modes, k);
         }
         for round in 0..3 {
             let mut worst: Option<(Phase, f64)> = None;
-            for p in Phase::ALL {
-                // Only an open leg not kept open may start conducting: the others'
-                // terminals need no judging (most re-resolves have one open leg or none).
-                if modes.get(p).conducts() || keep_open == Some(p) {
-                    continue;
-                }
+            let mut rest = legs;
+            while rest != 0 {
+                let p = Phase::ALL[rest.trailing_zeros() as usize];
+                rest &= rest - 1;
                 let mut viol = self.clamp_violation(sol.v_term.get(p), sol.i_shunt);
                 if round == 0 && at_clamp == Some(p) && viol.abs() <= 1e-9 {
                     // Located on the clamp: the nearer clamp is the one it reached.
@@ -634,6 +640,7 @@ impl Circuit {
             modes = trial;
             k = k_trial;
             *sol = s;
+            legs = judged(&modes);
         }
         (modes, k)
     }

@@ -13,7 +13,6 @@
 use super::rc::{CubicRc, ExpTable};
 use crate::params::CurrentSenseParams;
 use drive_core::{TICK_S, Ticks};
-use std::collections::VecDeque;
 
 mod state;
 
@@ -30,13 +29,40 @@ pub struct CurrentSense {
     full_scale: f64,
     conv: u64,
     y: f64,
-    /// The latest conversions as (readable from tick, code), newest last: every one taken
-    /// over the longest update, since an update may run ahead of the instants read.
-    results: VecDeque<(u64, u16)>,
+    /// The latest conversions' codes in a ring by sample number n mod its length (sample n
+    /// taken at n·T_conv, readable from (n + 1)·T_conv): the `held` newest, n up to
+    /// `next_n` − 1, and at most `keep` of them (every one taken over the longest update,
+    /// since an update may run ahead of the instants read). Samples are taken back to back,
+    /// so the codes alone say which conversion is readable when. Only those below
+    /// `coded_to` are in the ring; the later ones are coded from their update's pieces
+    /// when read (the controller reads about one in three).
+    codes_ring: Box<[u16]>,
+    held: usize,
+    keep: usize,
+    coded_to: u64,
     next_sample: u64,
-    /// The last update's filter pieces and start \[s\], to cut it short.
-    last: (Pieces, f64),
+    /// `next_sample` / T_conv: the next sample's number.
+    next_n: u64,
+    /// The latest updates' pieces in a ring, the newest at `newest` mod its length (to cut
+    /// it short, and to code its samples): a reused one's samples still held are coded
+    /// first.
+    updates: Box<[Update]>,
+    newest: usize,
 }
+
+/// One update's filter pieces, its start \[s\] and the numbers of the samples it took,
+/// `from..to`.
+#[derive(Copy, Clone, Debug)]
+struct Update {
+    pieces: Pieces,
+    t0: f64,
+    from: u64,
+    to: u64,
+}
+
+/// Updates kept: a power of two, and more than take place while a sample is held (a
+/// few conversions), so that a sample read is seldom coded before it is.
+const UPDATES: usize = 16;
 
 /// The pieces of one update: the cubic where it is inside the amplifier's swing, the clip
 /// level where it is not (at most three monotone parts, each crossing each level once).
@@ -67,6 +93,7 @@ impl CurrentSense {
     pub fn new(p: &CurrentSenseParams, shunt_ohm: f64, longest_update_s: f64) -> Self {
         let conv = p.conversion().0;
         let per_update = (longest_update_s / TICK_S / conv as f64).ceil() as usize;
+        let keep = per_update + 4;
         let tau = 1.0 / (std::f64::consts::TAU * p.filter_cutoff_hz);
         CurrentSense {
             volts_per_amp: shunt_ohm * p.amplifier_gain,
@@ -78,16 +105,28 @@ impl CurrentSense {
             full_scale: p.adc_full_scale_v,
             conv,
             y: 0.0,
-            results: VecDeque::with_capacity(per_update + 4),
+            // A power of two, so that the slot is a mask of the sample number.
+            codes_ring: vec![0; keep.next_power_of_two()].into_boxed_slice(),
+            held: 0,
+            keep,
+            coded_to: 1,
             next_sample: conv,
-            last: (
-                Pieces {
-                    seg: [CubicRc::new(0.0, 0.0, [0.0; 4], 1.0); 7],
-                    n: 1,
-                    y_end: 0.0,
-                },
-                0.0,
-            ),
+            next_n: 1,
+            updates: vec![
+                Update {
+                    pieces: Pieces {
+                        seg: [CubicRc::new(0.0, 0.0, [0.0; 4], 1.0); 7],
+                        n: 1,
+                        y_end: 0.0,
+                    },
+                    t0: 0.0,
+                    from: 1,
+                    to: 1,
+                };
+                UPDATES
+            ]
+            .into_boxed_slice(),
+            newest: 0,
         }
     }
 
@@ -112,26 +151,24 @@ impl CurrentSense {
         let g = self.volts_per_amp;
         let (y0, y1, m0, m1) = (g * i0, g * i1, g * d0 * h, g * d1 * h);
         let Some(c) = Self::one_side(self.max_v, (y0, m0), (y1, m1), h) else {
-            return self.search_pieces(h, (i0, d0), (i1, d1));
+            return self.search_pieces(h, (y0, m0), (y1, m1));
         };
         // What the search finds then: no cut, one piece over [0, h].
         let seg = CubicRc::new(0.0, self.y, c, self.tau);
-        let out = &mut self.last.0;
+        let out = &mut self.updates[self.newest % UPDATES].pieces;
         out.y_end = seg.at_decayed(h, self.decay.at(h)[0]);
         out.seg[0] = seg;
         out.n = 1;
     }
 
     /// [`CurrentSense::set_pieces`] by splitting the cubic into its monotone parts and
-    /// finding where each crosses a clip level.
-    fn search_pieces(&mut self, h: f64, (i0, d0): (f64, f64), (i1, d1): (f64, f64)) {
-        let g = self.volts_per_amp;
-        let (y0, y1, m0, m1) = (g * i0, g * i1, g * d0 * h, g * d1 * h);
+    /// finding where each crosses a clip level; the amplifier's output as there, its ends
+    /// `y0`, `y1` \[V\] and slopes `m0`, `m1` [V per update].
+    fn search_pieces(&mut self, h: f64, (y0, m0): (f64, f64), (y1, m1): (f64, f64)) {
         // In s = τ/h: v(s) = y0 + m0·s + c2·s² + c3·s³ [V].
-        let c2 = 3.0 * (y1 - y0) - 2.0 * m0 - m1;
-        let c3 = 2.0 * (y0 - y1) + m0 + m1;
+        let (c2, c3) = Self::hermite_terms((y0, m0), (y1, m1));
         let v = |s: f64| y0 + s * (m0 + s * (c2 + s * c3));
-        let coeffs = Self::coefficients(h, (y0, m0), (y1, m1));
+        let coeffs = Self::in_tau(h, y0, m0, (c2, c3));
         // Monotone parts: split at the roots of v′ = m0 + 2·c2·s + 3·c3·s².
         let mut cuts = [0.0, 1.0, 1.0, 1.0];
         let mut n_cuts = 1;
@@ -208,7 +245,7 @@ impl CurrentSense {
         bounds[n_b] = 1.0;
         // Built in place: the pieces are the chain's record of this update.
         let (y0, tau, decay) = (self.y, self.tau, &self.decay);
-        let out = &mut self.last.0;
+        let out = &mut self.updates[self.newest % UPDATES].pieces;
         out.n = 0;
         let mut y = y0;
         for w in bounds[..=n_b].windows(2) {
@@ -235,8 +272,19 @@ impl CurrentSense {
     /// V/s³\], from its ends `y0`, `y1` \[V\] and slopes `m0`, `m1` [V per update].
     #[inline(always)]
     fn coefficients(h: f64, (y0, m0): (f64, f64), (y1, m1): (f64, f64)) -> [f64; 4] {
-        let c2 = 3.0 * (y1 - y0) - 2.0 * m0 - m1;
-        let c3 = 2.0 * (y0 - y1) + m0 + m1;
+        Self::in_tau(h, y0, m0, Self::hermite_terms((y0, m0), (y1, m1)))
+    }
+
+    /// The Hermite cubic's s² and s³ coefficients (c2, c3) \[V\] in s = τ/h, from its
+    /// ends and slopes as in [`CurrentSense::coefficients`].
+    #[inline(always)]
+    fn hermite_terms((y0, m0): (f64, f64), (y1, m1): (f64, f64)) -> (f64, f64) {
+        (3.0 * (y1 - y0) - 2.0 * m0 - m1, 2.0 * (y0 - y1) + m0 + m1)
+    }
+
+    /// The cubic y0 + m0·s + c2·s² + c3·s³ in s = τ/h as coefficients in τ.
+    #[inline(always)]
+    fn in_tau(h: f64, y0: f64, m0: f64, (c2, c3): (f64, f64)) -> [f64; 4] {
         [y0, m0 / h, c2 / (h * h), c3 / (h * h * h)]
     }
 
@@ -274,43 +322,89 @@ impl CurrentSense {
         if h <= 0.0 {
             return;
         }
-        self.set_pieces(h, start, end);
-        self.last.1 = t0;
-        let k_end = Ticks::at_or_before(t1).0;
-        while self.next_sample <= k_end {
-            let code = self.quantise(
-                self.last
-                    .0
-                    .at(Ticks(self.next_sample).seconds() - t0, &self.decay),
-            );
-            if self.results.len() == self.results.capacity() {
-                self.results.pop_front();
-            }
-            self.results.push_back((self.next_sample + self.conv, code));
-            self.next_sample += self.conv;
+        self.newest = self.newest.wrapping_add(1);
+        let slot = self.newest % UPDATES;
+        // Its samples from `coded_to` on, if any is still held.
+        if self.updates[slot].to > self.next_n - self.held as u64 {
+            self.code_update(slot);
         }
-        self.y = self.last.0.y_end;
+        self.set_pieces(h, start, end);
+        let k_end = Ticks::at_or_before(t1).0;
+        let from = self.next_n;
+        if self.next_sample <= k_end {
+            // The samples in (t0, t1], coded when read.
+            let taken = (k_end - self.next_sample) / self.conv + 1;
+            self.next_n += taken;
+            self.next_sample += taken * self.conv;
+            self.held = (self.held as u64 + taken).min(self.keep as u64) as usize;
+        }
+        let u = &mut self.updates[slot];
+        (u.t0, u.from, u.to) = (t0, from, self.next_n);
+        self.y = u.pieces.y_end;
+    }
+
+    /// Codes the samples of update `slot` still held into the ring, before the slot is
+    /// reused (all of its samples are at or after `coded_to`, the updates' being in order).
+    #[cold]
+    #[inline(never)]
+    fn code_update(&mut self, slot: usize) {
+        let (from, to) = (self.updates[slot].from, self.updates[slot].to);
+        let mask = self.codes_ring.len() - 1;
+        for n in from.max(self.next_n - self.held as u64)..to {
+            let code = self.code_in(&self.updates[slot], n);
+            self.codes_ring[n as usize & mask] = code;
+        }
+        self.coded_to = to;
+    }
+
+    /// The code of sample `n`, taken in update `u`.
+    #[inline]
+    fn code_in(&self, u: &Update, n: u64) -> u16 {
+        self.quantise(
+            u.pieces
+                .at(Ticks(n * self.conv).seconds() - u.t0, &self.decay),
+        )
+    }
+
+    /// The code of held sample `n`: from the ring, or from the update that took it.
+    fn code_of(&self, n: u64) -> u16 {
+        if n < self.coded_to {
+            return self.codes_ring[n as usize & (self.codes_ring.len() - 1)];
+        }
+        (0..UPDATES)
+            .map(|j| &self.updates[self.newest.wrapping_sub(j) % UPDATES])
+            .find(|u| u.from <= n && n < u.to)
+            .map_or(0, |u| self.code_in(u, n))
     }
 
     /// Cuts the last update short at `t` \[s\] (inside it): samples after `t` are forgotten
     /// and the filter takes its value at `t`.
     pub fn truncate_at(&mut self, t: f64) {
-        let (pieces, t0) = &self.last;
-        self.y = pieces.at(t - t0, &self.decay);
+        let u = &mut self.updates[self.newest % UPDATES];
+        self.y = u.pieces.at(t - u.t0, &self.decay);
         let k = Ticks::at_or_before(t).0;
-        while self.results.back().is_some_and(|r| r.0 - self.conv > k) {
-            self.results.pop_back();
-        }
-        self.next_sample = (k / self.conv + 1) * self.conv;
+        // The samples after t, n·T_conv > t, are forgotten.
+        let next_n = k / self.conv + 1;
+        (u.from, u.to) = (u.from.min(next_n), u.to.min(next_n));
+        let forgotten = self.next_n.saturating_sub(next_n);
+        self.held = self
+            .held
+            .saturating_sub(usize::try_from(forgotten).unwrap_or(usize::MAX));
+        self.coded_to = self.coded_to.min(next_n);
+        self.next_n = next_n;
+        self.next_sample = next_n * self.conv;
     }
 
-    /// The latest conversion readable at `at` (which may lie a few conversions back).
+    /// The latest conversion readable at `at` (which may lie a few conversions back), 0
+    /// before the first.
     pub fn code_at(&self, at: Ticks) -> u16 {
-        self.results
-            .iter()
-            .rev()
-            .find(|r| r.0 <= at.0)
-            .map_or(0, |r| r.1)
+        // Sample n is readable from (n + 1)·T_conv: the newest readable taken is n = r − 1.
+        let r = (at.0 / self.conv).min(self.next_n);
+        // Held are the samples next_n − held ..= next_n − 1.
+        if r == 0 || r - 1 < self.next_n - self.held as u64 {
+            return 0;
+        }
+        self.code_of(r - 1)
     }
 
     /// Amperes per ADC code (for converting readings back).
@@ -367,9 +461,12 @@ mod tests {
             let (mut a, mut b) = (base.clone(), base.clone());
             a.y = unit();
             b.y = a.y;
+            // The amplifier's ends and slopes per update, as `set_pieces` makes them.
+            let g = a.volts_per_amp;
+            let (v0, v1) = ((g * start.0, g * start.1 * h), (g * end.0, g * end.1 * h));
             a.set_pieces(h, start, end);
-            b.search_pieces(h, start, end);
-            let (pa, pb) = (&a.last.0, &b.last.0);
+            b.search_pieces(h, v0, v1);
+            let (pa, pb) = (&a.updates[0].pieces, &b.updates[0].pieces);
             assert_eq!(pa.n, pb.n, "{start:?} {end:?} {h}");
             assert_eq!(pa.y_end.to_bits(), pb.y_end.to_bits());
             let bits = |s: &CubicRc| {
@@ -378,21 +475,85 @@ mod tests {
             for (sa, sb) in pa.seg[..pa.n].iter().zip(&pb.seg[..pb.n]) {
                 assert_eq!(bits(sa), bits(sb));
             }
-            at_once += usize::from(
-                CurrentSense::one_side(
-                    a.max_v,
-                    (a.volts_per_amp * start.0, a.volts_per_amp * start.1 * h),
-                    (a.volts_per_amp * end.0, a.volts_per_amp * end.1 * h),
-                    h,
-                )
-                .is_some(),
-            );
+            at_once += usize::from(CurrentSense::one_side(a.max_v, v0, v1, h).is_some());
         }
         // Both paths were exercised.
         assert!(
             (2_000..18_000).contains(&at_once),
             "{at_once} taken at once"
         );
+    }
+
+    #[test]
+    fn conversions_coded_when_read_equal_those_coded_at_once() {
+        // Steps of every length up to the longest (many within one conversion, so that
+        // updates are reused while their samples are held), cut short now and then; each
+        // sample coded at once from its update's pieces, as an eager converter would.
+        use drive_core::state::Persist;
+        let p = CurrentSenseParams::default();
+        let mut c = CurrentSense::new(&p, 0.25, 40e-6);
+        let mut z = 0x9e37_79b9_7f4a_7c15_u64;
+        let mut unit = || {
+            z = z.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1);
+            (z >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let mut eager = std::collections::BTreeMap::new();
+        let (mut t, mut i) = (0.0, (0.2, 0.0));
+        // A chain restored midway, run alongside until the next is restored: it saves the
+        // same bytes at every update.
+        let mut copy: Option<CurrentSense> = None;
+        for k in 0..20_000 {
+            let h = match k % 3 {
+                0 => 40e-6 * unit(),
+                1 => 1e-6 * unit(),
+                _ => 40e-9 * (1.0 + (8.0 * unit()).floor()),
+            };
+            let next = (0.6 * unit() - 0.05, 4e4 * (unit() - 0.5));
+            c.update(t, t + h, i, next);
+            if let Some(r) = copy.as_mut() {
+                r.update(t, t + h, i, next);
+            }
+            if let Some(r) = &copy {
+                assert_eq!(r.to_bytes().unwrap(), c.to_bytes().unwrap(), "update {k}");
+            }
+            let u = &c.updates[c.newest % UPDATES];
+            for n in u.from..u.to {
+                eager.insert(n, c.code_in(u, n));
+            }
+            (t, i) = (t + h, next);
+            if k % 7 == 3 {
+                t -= h * unit();
+                c.truncate_at(t);
+                if let Some(r) = copy.as_mut() {
+                    r.truncate_at(t);
+                }
+                let k = Ticks::at_or_before(t).0;
+                eager.retain(|&n, _| n * c.conv <= k);
+            }
+            // Read at or up to two conversions before the plant's time.
+            let at = Ticks(
+                Ticks::at_or_before(t)
+                    .0
+                    .saturating_sub((2.0 * c.conv as f64 * unit()) as u64),
+            );
+            // The newest conversion readable then, sample n with (n + 1)·T_conv <= at, if
+            // taken and still among the `held` newest.
+            let got = c.code_at(at);
+            let n = (at.0 / c.conv).min(c.next_n);
+            if n >= 1 && n - 1 + c.held as u64 >= c.next_n {
+                assert_eq!(got, eager[&(n - 1)], "update {k}, at {at:?}");
+            } else {
+                assert_eq!(got, 0, "update {k}, at {at:?}");
+            }
+            if k % 101 == 0 {
+                // Saved and restored, it reads the same.
+                let mut r = CurrentSense::new(&p, 0.25, 40e-6);
+                r.restore_from(&c.to_bytes().unwrap()).unwrap();
+                assert_eq!(r.code_at(at), got);
+                assert_eq!(r.to_bytes().unwrap(), c.to_bytes().unwrap());
+                copy = Some(r);
+            }
+        }
     }
 
     #[test]

@@ -2,44 +2,126 @@
 //! filter, the conversions in the pipeline, the next sample and the last update's
 //! pieces. Gains, time constant and converter are parameters, never read back.
 
-use super::{CurrentSense, Pieces};
-use drive_core::state::check;
-use drive_core::{Ticks, persist_fields};
+use super::{CurrentSense, Pieces, UPDATES};
+use crate::sensing::rc::CubicRc;
+use drive_core::Ticks;
+use drive_core::state::{Persist, Reader, Writer, check};
+use std::collections::VecDeque;
 
-persist_fields!(Pieces { seg, n, y_end });
+/// The pieces in use, the others written as zeros: a slot's pieces beyond `n` are left
+/// from whichever update used it before, which a restored chain does not share.
+impl Persist for Pieces {
+    fn save(&self, w: &mut Writer) {
+        let unused = CubicRc {
+            p: [0.0; 4],
+            from: 0.0,
+            transient: 0.0,
+            tau: 0.0,
+        };
+        let seg: [CubicRc; 7] =
+            std::array::from_fn(|k| if k < self.n { self.seg[k] } else { unused });
+        seg.save(w);
+        self.n.save(w);
+        self.y_end.save(w);
+    }
 
-// The filter, pipeline, next sample and last update; the rest are parameters.
-persist_fields!(CurrentSense {
-    y,
-    results,
-    next_sample,
-    last
-} then CurrentSense::check_pieces);
+    fn restore(&mut self, r: &mut Reader) -> Result<(), String> {
+        r.field("seg", &mut self.seg)?;
+        r.field("n", &mut self.n)?;
+        r.field("y_end", &mut self.y_end)
+    }
+}
+
+/// The filter, pipeline, next sample and last update; the rest are parameters. The
+/// pipeline is written as the conversions held, (readable from tick, code) oldest first,
+/// as a deque of them is, and the last update as its pieces and start.
+impl Persist for CurrentSense {
+    fn save(&self, w: &mut Writer) {
+        self.y.save(w);
+        self.conversions().save(w);
+        self.next_sample.save(w);
+        let u = &self.updates[self.newest % UPDATES];
+        (u.pieces, u.t0).save(w);
+    }
+
+    fn restore(&mut self, r: &mut Reader) -> Result<(), String> {
+        r.field("y", &mut self.y)?;
+        let mut results = VecDeque::<(u64, u16)>::new();
+        r.field("results", &mut results)?;
+        r.field("next_sample", &mut self.next_sample)?;
+        let u = &mut self.updates[self.newest % UPDATES];
+        let mut last = (u.pieces, u.t0);
+        r.field("last", &mut last)?;
+        (u.pieces, u.t0) = last;
+        self.check_pieces()?;
+        self.set_conversions(&results)
+    }
+}
 
 impl CurrentSense {
+    /// The conversions held, (readable from tick, code), oldest first.
+    fn conversions(&self) -> VecDeque<(u64, u16)> {
+        (self.next_n - self.held as u64..self.next_n)
+            .map(|n| ((n + 1) * self.conv, self.code_of(n)))
+            .collect()
+    }
+
+    /// Takes `results` (as [`CurrentSense::conversions`] gives them) into the ring, with
+    /// `next_sample` restored: they must be back to back, the newest the one before it.
+    /// All are coded then, no update holding any.
+    fn set_conversions(&mut self, results: &VecDeque<(u64, u16)>) -> Result<(), String> {
+        let (ns, conv) = (self.next_sample, self.conv);
+        check(ns % conv == 0 && ns > 0, || {
+            format!("next_sample = {ns} (rule: a whole number of conversions, {conv} ticks each)")
+        })?;
+        let next_n = ns / conv;
+        let n = results.len();
+        check(n <= self.keep && (n as u64) < next_n, || {
+            format!(
+                "results holds {n} conversions (rule: its pipeline's size, {}, and no more than taken before sample {next_n})",
+                self.keep
+            )
+        })?;
+        let first = next_n - n as u64;
+        for (j, &(at, _)) in results.iter().enumerate() {
+            let want = (first + j as u64 + 1) * conv;
+            check(at == want, || {
+                format!(
+                    "results[{j}].0 = {at} (rule: conversions back to back up to next_sample, here {want})"
+                )
+            })?;
+        }
+        let mask = self.codes_ring.len() - 1;
+        for (j, &(_, code)) in results.iter().enumerate() {
+            self.codes_ring[(first + j as u64) as usize & mask] = code;
+        }
+        self.held = n;
+        self.next_n = next_n;
+        self.coded_to = next_n;
+        for u in self.updates.iter_mut() {
+            (u.from, u.to) = (next_n, next_n);
+        }
+        Ok(())
+    }
+
     fn check_pieces(&self) -> Result<(), String> {
-        let n = self.last.0.n;
-        check((1..=self.last.0.seg.len()).contains(&n), || {
-            format!("last.n = {n} (rule: 1..={} pieces)", self.last.0.seg.len())
+        let last = &self.updates[self.newest % UPDATES].pieces;
+        let n = last.n;
+        check((1..=last.seg.len()).contains(&n), || {
+            format!("last.n = {n} (rule: 1..={} pieces)", last.seg.len())
         })
     }
 
     /// Checks a restored chain against the plant's time `t` \[s\]: the next sample lies
     /// within the longest step (`longest` ticks) and a conversion of it, so no update
-    /// takes more samples than a step would; the pipeline holds no more than it can.
+    /// takes more samples than a step would. (The pipeline's size and order are checked
+    /// as it is restored.)
     pub(crate) fn check_against(&self, t: f64, longest: u64) -> Result<(), String> {
         let now = Ticks::at_or_before(t).0;
         let reach = longest.saturating_add(self.conv);
         let ns = self.next_sample;
         check(ns.abs_diff(now) <= reach, || {
             format!("cur.next_sample = {ns} (rule: within {reach} ticks of the plant's tick {now})")
-        })?;
-        check(self.results.len() <= self.results.capacity().max(1), || {
-            format!(
-                "cur.results holds {} conversions (rule: its pipeline's size)",
-                self.results.len()
-            )
-        })?;
-        Ok(())
+        })
     }
 }
