@@ -726,3 +726,133 @@ fn the_paired_tick_walk_decides_each_tick_as_a_scalar_evaluation_does() {
     }
     assert!(both_in_pair > 0, "no pair with both ticks toggling");
 }
+
+/// A channel over a step without a bend (P linear) is built on its own path; it must be
+/// the general path's channel with a zero bend, to the bit, signed zeros included.
+#[test]
+fn a_channel_without_a_bend_is_the_zero_bend_case_to_the_bit() {
+    let zero = Bend::default();
+    let taus = ((1.0e-6, 1.05e-6), (1.0e6, 1.0 / 1.05e-6));
+    let fohs = [
+        Foh::ramp(0.3, 0.1, 2e4, 1.0e-6),
+        Foh::ramp(-2.0, 12.0, -3e5, 1.05e-6),
+        Foh::new(0.0, 0.0, 0.0, 1e-6, 1.0e-6),
+        Foh {
+            a: -0.0,
+            b: -0.0,
+            c: -0.0,
+        },
+    ];
+    for fx in &fohs {
+        for fn_ in &fohs {
+            for offset in [2e-3, 0.0, -0.0, -1.5e-3] {
+                for h in [20e-9, 0.37e-6, 25e-6] {
+                    let paths = |b| (fx, b, fn_);
+                    let lin = Channel::new(Phase::V, 1e-3, paths(None), taus, offset, h);
+                    let general = Channel::new(Phase::V, 1e-3, paths(Some(&zero)), taus, offset, h);
+                    let bits = |c: &Channel| {
+                        let mut v: Vec<u64> = c.poly.iter().map(|x| x.to_bits()).collect();
+                        v.extend(
+                            [c.beta, c.dev.0, c.dev.1, c.a, c.b, c.ap, c.bn].map(f64::to_bits),
+                        );
+                        v
+                    };
+                    assert_eq!(bits(&lin), bits(&general), "{fx:?} {fn_:?} {offset} {h}");
+                }
+            }
+        }
+    }
+}
+
+/// The bounds a scan rules ticks out by hold at every tick they cover: over spans of a
+/// step with filter transients, a floating leg's bend and ringing, the range a bound
+/// gives contains the noise-free signal (ringing included) evaluated tick by tick with
+/// `exp` and `sin`, and a span ruled out with the noise anywhere in its range holds no
+/// tick where the output could toggle.
+#[test]
+fn the_bounds_hold_at_every_tick_they_cover() {
+    let p = ComparatorParams {
+        ring_decay_s: 0.4e-6,
+        ..ComparatorParams::default()
+    };
+    let (tp, tn, tr) = (p.phase_filter_tau_s, p.neutral_filter_tau_s, p.ring_decay_s);
+    let w = TAU * p.ring_frequency_hz;
+    let (half_h, noise) = (p.hysteresis_v / 2.0, p.noise_v);
+    // Ringing excited at tick 90; the step from 0.4 ticks before tick 100, 30 µs long.
+    let (rk, z) = (90u64, (0.05, -0.12));
+    let (t0, h) = (99.6 * TICK_S, 30e-6);
+    let mut f = ComparatorBank::new(&p, 3, &Abc::splat(0.0), 0.0).front;
+    f.ring = Ring {
+        z,
+        t: tick_instant(rk),
+        k: rk,
+        mag: z.0.hypot(z.1),
+    };
+    let taus = ((tp, tn), (1.0 / tp, 1.0 / tn));
+    // A floating leg's bend (a cubic from rest through the phase filter), and none.
+    let q = hermite(1.0 / h, (0.0, 3e3), (0.0, -5e3));
+    let bend = Bend::new(&CubicRc::new(0.0, 0.0, q, tp));
+    let (mut ruled_out, mut spans) = (0, 0);
+    for (fx, fn_) in [
+        // A common-mode step's filter spike about a rising back-EMF.
+        (
+            Foh::ramp(0.2, 6.0, 2e3, tp),
+            Foh::ramp(0.2, 6.0 - 4e-3, 0.0, tn),
+        ),
+        // Falling through the thresholds.
+        (
+            Foh::ramp(0.01, 0.01, -1.5e3, tp),
+            Foh::ramp(0.0, 0.0, 0.0, tn),
+        ),
+    ] {
+        for b in [None, Some(&bend)] {
+            let mut c = Channel::new(Phase::U, t0, (&fx, b, &fn_), taus, 1e-3, h);
+            c.k_s = 100;
+            let ta = tick_instant(c.k_s) - t0;
+            c.base = ((-ta / tp).exp(), (-ta / tn).exp());
+            let k_end = Ticks::at_or_before(t0 + h).0;
+            let s = |k: u64| {
+                let tau = tick_instant(k) - t0;
+                let dt = (k - rk) as f64 * TICK_S;
+                horner(&c.poly, tau) + c.a * (-tau / tp).exp() - c.b * (-tau / tn).exp()
+                    + (-dt / tr).exp() * (z.0 * (w * dt).sin() + z.1 * (w * dt).cos())
+            };
+            // Spans of 1 to 1024 ticks from ticks spread over the step.
+            for (i, a) in (c.k_s..=k_end).step_by(37).enumerate() {
+                for len in [1, 2, 7, 25, 64, 200, 1024] {
+                    let b = (a + len - 1).min(k_end);
+                    let (ta, tb, wd, env) = f.over(&c, a, b);
+                    let (lo, hi) = f.range(&c, ta, tb, wd, env);
+                    let tol = 1e-12 * (c.a.abs() + c.b.abs() + c.poly[0].abs() + 1.0);
+                    for k in a..=b {
+                        let v = s(k);
+                        assert!(
+                            lo - tol <= v && v <= hi + tol,
+                            "tick {k} in {a}..={b}: {v} outside [{lo}, {hi}]"
+                        );
+                    }
+                    for out in [false, true] {
+                        spans += 1;
+                        if !f.may_toggle_over(&c, out, a, b, -noise, noise) {
+                            ruled_out += 1;
+                            let crossing = (a..=b).any(|k| {
+                                let v = s(k);
+                                if out {
+                                    v - noise < -half_h + tol
+                                } else {
+                                    v + noise > half_h - tol
+                                }
+                            });
+                            assert!(!crossing, "span {a}..={b} (out {out}, {i}) ruled out");
+                        }
+                    }
+                }
+            }
+        }
+    }
+    // Both kinds of span occur: some ruled out, some not.
+    assert!(
+        ruled_out > spans / 10 && ruled_out < spans,
+        "{ruled_out} of {spans}"
+    );
+}
