@@ -5,7 +5,9 @@
 
 use bldc_drive::DriveConfig;
 use bldc_drive::drive::build;
-use bldc_drive::drive_core::{Carrier, Command, Controller, Engine, Sensed, StopReason, Ticks};
+use bldc_drive::drive_core::{
+    Carrier, Command, Controller, Engine, Pattern, Sensed, StopReason, Ticks,
+};
 use bldc_drive::plants::BldcPlant;
 use bldc_drive::strategies::{ChipStatus, Strategy, StrategyName};
 
@@ -24,6 +26,9 @@ impl Controller for ReadsAll {
     }
     fn fault(&self) -> Option<&str> {
         self.0.fault()
+    }
+    fn planned_change(&self) -> Option<(Ticks, Pattern)> {
+        self.0.planned_change()
     }
 }
 

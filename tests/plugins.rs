@@ -120,7 +120,7 @@ fn a_library_without_the_entry_symbol_is_refused() {
     let m = e.to_string();
     assert!(matches!(e, PluginError::NoEntry { .. }), "{m}");
     assert!(
-        m.contains("bldc_strategy_entry") && m.contains("libm.so.6") && m.contains("host ABI 1.1"),
+        m.contains("bldc_strategy_entry") && m.contains("libm.so.6") && m.contains("host ABI 1.2"),
         "{m}"
     );
 }
@@ -154,7 +154,7 @@ fn a_newer_abi_major_is_refused_with_both_versions() {
         "{e}"
     );
     assert!(
-        e.to_string().contains("ABI 2.1 (plugin) vs 1.1 (host)"),
+        e.to_string().contains("ABI 2.2 (plugin) vs 1.2 (host)"),
         "{e}"
     );
 }

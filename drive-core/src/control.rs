@@ -134,6 +134,17 @@ pub trait Controller {
     fn fault(&self) -> Option<&str> {
         None
     }
+
+    /// The next instant at which the controller already knows it will command another
+    /// pattern (e.g. a commutation timed by a counter), with that pattern, if its inputs
+    /// hold; `None` when it knows none (the default). Only a hint for the engine, which ends
+    /// the plant's step there when the gates would change, instead of integrating past it
+    /// and going back: a wrong or missing hint costs time, never correctness. The engine
+    /// reads it after each tick and when restored, so it may change only at a tick. A
+    /// controller wrapping another forwards it, or its runs differ in the last digits.
+    fn planned_change(&self) -> Option<(Ticks, Pattern)> {
+        None
+    }
 }
 
 impl<C: Controller + ?Sized> Controller for &mut C {
@@ -146,6 +157,9 @@ impl<C: Controller + ?Sized> Controller for &mut C {
     fn fault(&self) -> Option<&str> {
         (**self).fault()
     }
+    fn planned_change(&self) -> Option<(Ticks, Pattern)> {
+        (**self).planned_change()
+    }
 }
 
 impl<C: Controller + ?Sized> Controller for Box<C> {
@@ -157,6 +171,9 @@ impl<C: Controller + ?Sized> Controller for Box<C> {
     }
     fn fault(&self) -> Option<&str> {
         (**self).fault()
+    }
+    fn planned_change(&self) -> Option<(Ticks, Pattern)> {
+        (**self).planned_change()
     }
 }
 

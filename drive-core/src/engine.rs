@@ -89,6 +89,11 @@ pub struct Engine<P, C, S> {
     /// clock as of its last tick (derived; each step sets the horizon). A controller
     /// replaced or changed through the public field takes effect at its next tick.
     watch: Watch,
+    /// The controller's planned change ([`Controller::planned_change`]) on its clock edge,
+    /// with the PWM output off and on: [`Ticks::NEVER`] where it would leave the gates as
+    /// they are; none after a tick whose command was refused. A plant step ends there too
+    /// (derived: read after each tick and when restored).
+    planned: [Ticks; 2],
     pwm_on: bool,
     wake: Ticks,
     sample_period: Ticks,
@@ -103,6 +108,7 @@ impl<P: Plant, C: Controller, S: PwmScheme> Engine<P, C, S> {
             masks: Self::masks_of(&scheme, &Command::OFF.pattern),
             pwm_edge: None,
             watch: Self::watch_of(&Command::OFF, controller.clock()),
+            planned: [Ticks::NEVER; 2],
             plant,
             controller,
             scheme,
@@ -136,6 +142,7 @@ impl<P: Plant, C: Controller, S: PwmScheme> Engine<P, C, S> {
             masks: self.masks,
             pwm_edge: self.pwm_edge,
             watch: self.watch,
+            planned: self.planned,
             pwm_on: self.pwm_on,
             wake: self.wake,
             sample_period: self.sample_period,
@@ -202,7 +209,10 @@ impl<P: Plant, C: Controller, S: PwmScheme> Engine<P, C, S> {
         };
         let target = end.min(pwm_edge).min(self.wake).min(release).min(sample);
         let watch = Watch {
-            horizon: pwm_edge.min(release).max(target),
+            horizon: pwm_edge
+                .min(release)
+                .min(self.planned[usize::from(self.pwm_on)])
+                .max(target),
             ..self.watch
         };
         match self.plant.advance(target, watch) {
@@ -283,6 +293,24 @@ impl<P: Plant, C: Controller, S: PwmScheme> Engine<P, C, S> {
         [false, true].map(|on| scheme.gates(pattern, on).into())
     }
 
+    /// The controller's planned change for [`Engine::planned`], against the masks in force.
+    fn plan(&mut self) {
+        self.planned = match self.controller.planned_change() {
+            Some((at, pattern)) if pattern != self.cmd.pattern => {
+                let at = at.next_edge(self.watch.clock);
+                let next = Self::masks_of(&self.scheme, &pattern);
+                [0, 1].map(|k| {
+                    if next[k] != self.masks[k] {
+                        at
+                    } else {
+                        Ticks::NEVER
+                    }
+                })
+            }
+            _ => [Ticks::NEVER; 2],
+        };
+    }
+
     /// What the plant watches under `cmd` with the controller's `clock` (no horizon yet).
     fn watch_of(cmd: &Command, clock: Ticks) -> Watch {
         Watch {
@@ -316,16 +344,19 @@ impl<P: Plant, C: Controller, S: PwmScheme> Engine<P, C, S> {
             if let Err(e) = Self::check_reads(t, &sensed) {
                 // Its command rests on a value it should not have read: none is applied.
                 self.set_command(Command::OFF);
+                self.planned = [Ticks::NEVER; 2];
                 return Err(e);
             }
             if let Some(message) = self.controller.fault() {
                 let message = message.to_string();
                 self.set_command(Command::OFF);
+                self.planned = [Ticks::NEVER; 2];
                 return Err(EngineError::ControllerFault {
                     time_s: t.seconds(),
                     message,
                 });
             }
+            self.plan();
             let clock = self.watch.clock;
             let asked = self.cmd.wake_at.max(Ticks(t.0 + 1));
             self.wake = if self.cmd.wake_at == Ticks::NEVER {
@@ -377,6 +408,7 @@ impl<P: Plant + Persist, C: Controller + Persist, S: PwmScheme> Persist for Engi
         self.masks = Self::masks_of(&self.scheme, &self.cmd.pattern);
         self.pwm_edge = None;
         self.watch = Self::watch_of(&self.cmd, self.controller.clock());
+        self.plan();
         restored
     }
 }
@@ -631,6 +663,76 @@ mod tests {
             ]
         );
         assert!(e.plant.gate_log.iter().all(|(_, g)| g.low.v && !g.high.v));
+    }
+
+    /// A controller that holds one command, and plans a change it does not make.
+    struct Planner {
+        cmd: Command,
+        plan: Option<(Ticks, Pattern)>,
+    }
+
+    impl Controller for Planner {
+        fn clock(&self) -> Ticks {
+            Ticks(32)
+        }
+        fn tick(&mut self, now: Ticks, _s: &Sensed) -> Command {
+            if self.plan.is_some_and(|p| now >= p.0) {
+                self.plan = None;
+                self.cmd.wake_at = Ticks::NEVER;
+            }
+            self.cmd
+        }
+        fn planned_change(&self) -> Option<(Ticks, Pattern)> {
+            self.plan
+        }
+    }
+
+    /// The horizons the plant is given over the steps up to `end`.
+    fn horizons(plan: Option<(Ticks, Pattern)>, end: Ticks) -> Vec<u64> {
+        use crate::bridge::LegState::{Float as F, High as V, Low as G};
+        let cmd = Command {
+            pattern: Abc { u: V, v: G, w: F },
+            duty: 50,
+            watch: Abc::splat(false),
+            reads: Abc::splat(Ticks::NEVER),
+            wake_at: plan.map_or(Ticks::NEVER, |p| p.0),
+        };
+        let mut e = Engine::new(
+            MockPlant::new(Ticks::NEVER),
+            Planner { cmd, plan },
+            HighSideChop,
+            Carrier { top: 100 },
+            Ticks::ZERO,
+        );
+        let mut h = Vec::new();
+        e.step(end).unwrap();
+        loop {
+            let r = e.step(end).unwrap();
+            h.push(e.plant.declared.horizon.0);
+            if r == StopReason::End {
+                return h;
+            }
+        }
+    }
+
+    #[test]
+    fn a_plant_step_ends_at_a_planned_change_only_where_it_changes_the_gates() {
+        use crate::bridge::LegState::{Float as F, High as V, Low as G};
+        // Carrier top 100, cv 50: on for p < 50 or p ≥ 150, edges at 50, 150, 250; the last
+        // step, to 200, is given the edge after it.
+        assert_eq!(horizons(None, Ticks(200)), vec![50, 150, 250]);
+        // At 32 the output is on: u's high side would turn off, w's on.
+        let at_32 = Some((Ticks(32), Abc { u: F, v: G, w: V }));
+        assert_eq!(horizons(at_32, Ticks(200)), vec![32, 50, 150, 250]);
+        // Planned between clock edges: the tick, and the step's end, at the next edge.
+        let at_20 = Some((Ticks(20), Abc { u: F, v: G, w: V }));
+        assert_eq!(horizons(at_20, Ticks(200)), vec![32, 50, 150, 250]);
+        // At 96 the output is off: floating u (chopped, so off) changes no gate ...
+        let off_same = Some((Ticks(96), Abc { u: F, v: G, w: F }));
+        assert_eq!(horizons(off_same, Ticks(200)), vec![50, 150, 150, 250]);
+        // ... moving the low side from v to w does.
+        let off_other = Some((Ticks(96), Abc { u: V, v: F, w: G }));
+        assert_eq!(horizons(off_other, Ticks(200)), vec![50, 96, 150, 250]);
     }
 
     #[test]

@@ -752,6 +752,18 @@ impl Controller for Chip {
         clocks::COMMUTATION
     }
 
+    /// The end of the post part (the commutation to the sector's pre pattern) or of an
+    /// alignment step before the last (the next alignment pattern): both are timed.
+    fn planned_change(&self) -> Option<(Ticks, Pattern)> {
+        match self.mode {
+            Mode::Running => Some((self.shifter.post_end()?, self.shifter.sector().pre)),
+            Mode::Aligning { step, until } => {
+                Some((until, *ALIGN_PATTERNS.get(usize::from(step) + 1)?))
+            }
+            Mode::Off | Mode::GaveUp => None,
+        }
+    }
+
     fn tick(&mut self, now: Ticks, sensed: &Sensed) -> Command {
         if self.reset {
             self.switch_off();
@@ -910,6 +922,60 @@ mod tests {
         for _ in 0..20 {
             cmd = next_declared(&mut c, &mut now, &cmd, !post_level);
         }
+    }
+
+    /// What the chip plans (alignment steps' ends, post parts' ends) is the instant and
+    /// the pattern of its next pattern change, ticked at every clock edge with a clean
+    /// crossing in each sector.
+    #[test]
+    fn a_planned_change_is_the_next_pattern_change() {
+        let mut c = chip(5);
+        let mut now = Ticks::ZERO;
+        let mut cmd = c.tick(now, &Sensed::default());
+        let mut plan = c.planned_change();
+        let mut changes = 0;
+        let mut commutations = 0;
+        let mut pre_since = Ticks::ZERO;
+        while commutations < 12 {
+            let running = c.status().mode == Mode::Running;
+            // At every edge: Z_d at the pre level until a crossing is plausible and the
+            // detector has had its blanking time, then at the post level.
+            let post = c.shifter.sector().rising;
+            let cross = running
+                && c.shifter.in_pre()
+                && now >= c.shifter.earliest_crossing()
+                && now.0 >= pre_since.0 + 2 * BLANKING.0;
+            let level = if cross { post } else { !post };
+            cmd.wake_at = cmd.wake_at.min(Ticks(now.0 + 1));
+            let before = cmd.pattern;
+            let was_pre = c.shifter.in_pre();
+            cmd = next_declared(&mut c, &mut now, &cmd, level);
+            if c.shifter.in_pre() && !was_pre {
+                pre_since = now;
+            }
+            if let Some((at, pattern)) = plan {
+                assert!(now <= at, "{now:?} passed the plan {at:?}");
+                if now == at {
+                    assert_eq!(cmd.pattern, pattern, "at {now:?}");
+                    changes += 1;
+                    commutations += usize::from(running);
+                }
+            }
+            if running && !was_pre && cmd.pattern != before {
+                // A post part ends at its planned instant alone (crossings are not planned).
+                assert_eq!(plan.map(|p| p.0), Some(now), "unplanned change");
+            }
+            plan = c.planned_change();
+            assert!(
+                now < Ticks::from_seconds(2.0).unwrap(),
+                "12 planned ends by 2 s"
+            );
+        }
+        assert_eq!(
+            changes,
+            2 + 12,
+            "two alignment steps, then 12 post parts' ends"
+        );
     }
 
     #[test]

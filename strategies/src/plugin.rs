@@ -9,7 +9,9 @@
 use crate::chip::{ChipStatus, Mode};
 use crate::strategy::Strategy;
 use crate::table::{OFF_FLAG, Table, flag_of};
-use drive_core::{Abc, Command, Controller, LegState, Persist, Reader, Sensed, Ticks, Writer};
+use drive_core::{
+    Abc, Command, Controller, LegState, Pattern, Persist, Reader, Sensed, Ticks, Writer,
+};
 use std::ffi::{CStr, CString, c_char};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -276,6 +278,7 @@ impl PluginLibrary {
                 speed_ref_rpm,
             },
             top: info.carrier_top,
+            plan: None,
         };
         let mut clock = 0u64;
         // SAFETY: live instance, valid out pointers.
@@ -386,6 +389,8 @@ pub struct PluginStrategy {
     fault: Option<String>,
     inputs: abi::Inputs,
     top: u32,
+    /// The plugin's planned change (ABI 1.2), as of its last step or restore.
+    plan: Option<(Ticks, Pattern)>,
 }
 
 // SAFETY: the ABI requires instances to be movable between threads, and the host never
@@ -475,6 +480,35 @@ impl PluginStrategy {
                 self.lib.name,
                 self.lib.path.display()
             ));
+        }
+    }
+
+    /// Asks the plugin for its planned change (ABI 1.2). Only a hint: without the function,
+    /// on an error or with legs the bridge cannot take, there is none.
+    fn refresh_plan(&mut self) {
+        self.plan = None;
+        let Some(f) = self
+            .lib
+            .vtable
+            .planned_change
+            .filter(|_| self.lib.minor >= 2)
+        else {
+            return;
+        };
+        let (mut at, mut legs) = (u64::MAX, [0u8; 3]);
+        let mut buf = ErrBuf::new();
+        // SAFETY: live instance, valid out pointers.
+        if unsafe { f(self.inst, &mut at, &mut legs, buf.raw()) } != abi::OK || at == u64::MAX {
+            return;
+        }
+        let leg = |b: u8| match b {
+            0 => Some(LegState::Float),
+            abi::LEG_HIGH => Some(LegState::High),
+            abi::LEG_LOW => Some(LegState::Low),
+            _ => None,
+        };
+        if let [Some(u), Some(v), Some(w)] = legs.map(leg) {
+            self.plan = Some((Ticks(at), Abc { u, v, w }));
         }
     }
 
@@ -583,6 +617,7 @@ impl Controller for PluginStrategy {
                     crossings: st.crossings,
                     forced_crossings: st.forced_crossings,
                 };
+                self.refresh_plan();
                 cmd
             }
             Err(m) => {
@@ -594,6 +629,10 @@ impl Controller for PluginStrategy {
 
     fn fault(&self) -> Option<&str> {
         self.fault.as_deref()
+    }
+
+    fn planned_change(&self) -> Option<(Ticks, Pattern)> {
+        self.plan.filter(|_| self.fault.is_none())
     }
 }
 
@@ -658,7 +697,9 @@ impl Strategy for PluginStrategy {
                 self.lib.name,
                 self.lib.path.display()
             )
-        })
+        })?;
+        self.refresh_plan();
+        Ok(())
     }
     fn try_clone(&self) -> Result<Box<dyn Strategy>, String> {
         let mut buf = ErrBuf::new();
@@ -680,6 +721,7 @@ impl Strategy for PluginStrategy {
             fault: self.fault.clone(),
             inputs: self.inputs,
             top: self.top,
+            plan: self.plan,
         }))
     }
 }

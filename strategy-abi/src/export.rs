@@ -35,6 +35,12 @@ pub trait Plugin: Clone + Send + Sized + 'static {
         let _ = state;
         Err("this plugin cannot restore its state (rule: implement Plugin::save and Plugin::restore)".into())
     }
+    /// The next instant \[ticks\] at which the strategy already knows it will command other
+    /// legs, with those legs, if its inputs hold (ABI 1.2; a hint, see
+    /// [`crate::VTable::planned_change`]). None by default.
+    fn planned_change(&self) -> Option<(u64, [u8; 3])> {
+        None
+    }
 }
 
 /// An instance with its initial state (for reset) and a poison flag set by a panic.
@@ -303,6 +309,24 @@ unsafe extern "C" fn restore<T: Plugin>(
     unsafe { with::<T>(inst, err, |t| t.restore(state)) }
 }
 
+unsafe extern "C" fn planned_change<T: Plugin>(
+    inst: Instance,
+    at: *mut u64,
+    legs: *mut [u8; 3],
+    err: *mut ErrorBuf,
+) -> i32 {
+    if at.is_null() || legs.is_null() {
+        unsafe { report(err, "planned_change: null argument") };
+        return ERROR;
+    }
+    unsafe {
+        with::<T>(inst, err, |t| {
+            (*at, *legs) = t.planned_change().unwrap_or((u64::MAX, [0; 3]));
+            Ok(())
+        })
+    }
+}
+
 /// The vtable of `T`: every function wraps `T`'s method with panic and null checks.
 pub const fn vtable_of<T: Plugin>() -> VTable {
     VTable {
@@ -316,6 +340,7 @@ pub const fn vtable_of<T: Plugin>() -> VTable {
         step: step::<T>,
         save: Some(save::<T>),
         restore: Some(restore::<T>),
+        planned_change: Some(planned_change::<T>),
     }
 }
 

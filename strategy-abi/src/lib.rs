@@ -36,8 +36,9 @@ use std::ffi::c_void;
 pub const MAGIC: [u8; 8] = *b"BLDCSTRT";
 /// ABI major version of this crate.
 pub const ABI_MAJOR: u32 = 1;
-/// ABI minor version of this crate. 1: `save` and `restore` appended to [`VTable`].
-pub const ABI_MINOR: u32 = 1;
+/// ABI minor version of this crate. 1: `save` and `restore` appended to [`VTable`];
+/// 2: `planned_change`.
+pub const ABI_MINOR: u32 = 2;
 /// Name of the entry symbol (NUL-terminated for `dlsym`).
 pub const ENTRY_SYMBOL: &[u8] = b"bldc_strategy_entry\0";
 
@@ -257,6 +258,19 @@ pub struct VTable {
     /// then drops the instance.
     pub restore: Option<
         unsafe extern "C" fn(inst: Instance, buf: *const u8, len: usize, err: *mut ErrorBuf) -> i32,
+    >,
+    /// ABI 1.2: the next instant \[ticks\] at which the strategy already knows it will
+    /// command other legs (e.g. a commutation timed by a counter), with those legs (as in
+    /// [`CCommand::legs`]), if its inputs hold; `u64::MAX` in `at` for none. A hint the host
+    /// reads after each `step` and `restore`: it ends the plant's integration step there.
+    /// `None` (a null pointer), or an error, is the same as none.
+    pub planned_change: Option<
+        unsafe extern "C" fn(
+            inst: Instance,
+            at: *mut u64,
+            legs: *mut [u8; 3],
+            err: *mut ErrorBuf,
+        ) -> i32,
     >,
 }
 

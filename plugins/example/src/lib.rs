@@ -28,6 +28,14 @@ fn bit(b: bool) -> u8 {
     b.into()
 }
 
+fn leg(l: LegState) -> u8 {
+    match l {
+        LegState::High => LEG_HIGH,
+        LegState::Low => LEG_LOW,
+        LegState::Float => 0,
+    }
+}
+
 impl Plugin for ExampleDf {
     fn create(config_toml: &str, info: &DriveInfo) -> Result<Self, String> {
         let mut s: Sections = toml::from_str(config_toml).map_err(|e| e.to_string())?;
@@ -77,11 +85,6 @@ impl Plugin for ExampleDf {
             sensed.current_code,
         );
         let c = self.chip.tick(Ticks(now), &s);
-        let leg = |l: LegState| match l {
-            LegState::High => LEG_HIGH,
-            LegState::Low => LEG_LOW,
-            LegState::Float => 0,
-        };
         let st = self.chip.status();
         Ok((
             CCommand {
@@ -124,6 +127,11 @@ impl Plugin for ExampleDf {
 
     fn restore(&mut self, state: &[u8]) -> Result<(), String> {
         self.chip.restore_from(state)
+    }
+
+    fn planned_change(&self) -> Option<(u64, [u8; 3])> {
+        let (at, p) = self.chip.planned_change()?;
+        Some((at.0, [leg(p.u), leg(p.v), leg(p.w)]))
     }
 }
 
