@@ -384,8 +384,12 @@ impl CurrentSense {
         self.y = u.pieces.at(t - u.t0, &self.decay);
         let k = Ticks::at_or_before(t).0;
         // The samples after t, n·T_conv > t, are forgotten.
-        let next_n = k / self.conv + 1;
-        (u.from, u.to) = (u.from.min(next_n), u.to.min(next_n));
+        let next_n = (k / self.conv + 1).min(self.next_n);
+        // Every slot, not only the newest: after a restore the others claim up to the
+        // restored sample count, and a claim on a forgotten sample would later mark it coded.
+        for u in self.updates.iter_mut() {
+            (u.from, u.to) = (u.from.min(next_n), u.to.min(next_n));
+        }
         let forgotten = self.next_n.saturating_sub(next_n);
         self.held = self
             .held
@@ -486,12 +490,20 @@ mod tests {
 
     #[test]
     fn conversions_coded_when_read_equal_those_coded_at_once() {
-        // Steps of every length up to the longest (many within one conversion, so that
-        // updates are reused while their samples are held), cut short now and then; each
-        // sample coded at once from its update's pieces, as an eager converter would.
+        // The default step limit (80 µs: the ring is full) and a shorter one (spare slots).
+        for longest in [80e-6, 40e-6] {
+            coded_when_read(longest);
+        }
+    }
+
+    /// Steps of every length up to `longest` (many within one conversion, so that updates
+    /// are reused while their samples are held), cut short now and then; each sample coded
+    /// at once from its update's pieces, as an eager converter would. A chain restored from
+    /// the bytes, at times just before a cut, runs alongside until the next restore.
+    fn coded_when_read(longest: f64) {
         use drive_core::state::Persist;
         let p = CurrentSenseParams::default();
-        let mut c = CurrentSense::new(&p, 0.25, 40e-6);
+        let mut c = CurrentSense::new(&p, 0.25, longest);
         let mut z = 0x9e37_79b9_7f4a_7c15_u64;
         let mut unit = || {
             z = z.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1);
@@ -499,12 +511,10 @@ mod tests {
         };
         let mut eager = std::collections::BTreeMap::new();
         let (mut t, mut i) = (0.0, (0.2, 0.0));
-        // A chain restored midway, run alongside until the next is restored: it saves the
-        // same bytes at every update.
         let mut copy: Option<CurrentSense> = None;
         for k in 0..20_000 {
             let h = match k % 3 {
-                0 => 40e-6 * unit(),
+                0 => longest * unit(),
                 1 => 1e-6 * unit(),
                 _ => 40e-9 * (1.0 + (8.0 * unit()).floor()),
             };
@@ -513,14 +523,16 @@ mod tests {
             if let Some(r) = copy.as_mut() {
                 r.update(t, t + h, i, next);
             }
-            if let Some(r) = &copy {
-                assert_eq!(r.to_bytes().unwrap(), c.to_bytes().unwrap(), "update {k}");
-            }
             let u = &c.updates[c.newest % UPDATES];
             for n in u.from..u.to {
                 eager.insert(n, c.code_in(u, n));
             }
             (t, i) = (t + h, next);
+            if k % 101 == 0 {
+                let mut r = CurrentSense::new(&p, 0.25, longest);
+                r.restore_from(&c.to_bytes().unwrap()).unwrap();
+                copy = Some(r);
+            }
             if k % 7 == 3 {
                 t -= h * unit();
                 c.truncate_at(t);
@@ -529,6 +541,14 @@ mod tests {
                 }
                 let k = Ticks::at_or_before(t).0;
                 eager.retain(|&n, _| n * c.conv <= k);
+            }
+            // Every held sample, n = next_n − held ..= next_n − 1, readable from (n + 1)·T_conv.
+            for n in c.next_n - c.held as u64..c.next_n {
+                let at = Ticks((n + 1) * c.conv);
+                assert_eq!(c.code_at(at), eager[&n], "update {k}, sample {n}");
+                if let Some(r) = &copy {
+                    assert_eq!(r.code_at(at), eager[&n], "restored, update {k}, sample {n}");
+                }
             }
             // Read at or up to two conversions before the plant's time.
             let at = Ticks(
@@ -545,15 +565,40 @@ mod tests {
             } else {
                 assert_eq!(got, 0, "update {k}, at {at:?}");
             }
-            if k % 101 == 0 {
-                // Saved and restored, it reads the same.
-                let mut r = CurrentSense::new(&p, 0.25, 40e-6);
-                r.restore_from(&c.to_bytes().unwrap()).unwrap();
-                assert_eq!(r.code_at(at), got);
-                assert_eq!(r.to_bytes().unwrap(), c.to_bytes().unwrap());
-                copy = Some(r);
+            if let Some(r) = &copy {
+                assert_eq!(r.code_at(at), got, "restored, update {k}");
+                assert_eq!(r.to_bytes().unwrap(), c.to_bytes().unwrap(), "update {k}");
             }
         }
+    }
+
+    #[test]
+    fn a_restored_update_cut_short_reads_as_the_uninterrupted_one() {
+        // A lookahead past the next gate change, saved, then cut short at the change and
+        // followed by another current: the samples after the cut are taken again, from the
+        // new update, in both chains.
+        use drive_core::state::Persist;
+        let p = CurrentSenseParams::default();
+        let mut c = CurrentSense::new(&p, 0.25, 80e-6);
+        let i = |t: f64| (0.1 + 1e3 * t, 1e3);
+        let mut t = 0.0;
+        for _ in 0..20 {
+            c.update(t, t + 10e-6, i(t), i(t + 10e-6));
+            t += 10e-6;
+        }
+        c.update(t, t + 60e-6, i(t), i(t + 60e-6));
+        let mut r = CurrentSense::new(&p, 0.25, 80e-6);
+        r.restore_from(&c.to_bytes().unwrap()).unwrap();
+        for x in [&mut c, &mut r] {
+            x.truncate_at(t + 5e-6);
+            x.update(t + 5e-6, t + 45e-6, (0.4, 0.0), (0.4, 0.0));
+        }
+        assert!(c.held > 2, "samples after the cut were taken again");
+        for n in c.next_n - c.held as u64..c.next_n {
+            let at = Ticks((n + 1) * c.conv);
+            assert_eq!(r.code_at(at), c.code_at(at), "sample {n}");
+        }
+        assert_eq!(r.to_bytes().unwrap(), c.to_bytes().unwrap());
     }
 
     #[test]

@@ -98,8 +98,9 @@ impl CurrentSense {
         self.held = n;
         self.next_n = next_n;
         self.coded_to = next_n;
+        // The held samples are all in the ring: no update claims any.
         for u in self.updates.iter_mut() {
-            (u.from, u.to) = (next_n, next_n);
+            (u.from, u.to) = (first, first);
         }
         Ok(())
     }
