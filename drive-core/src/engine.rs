@@ -91,8 +91,9 @@ pub struct Engine<P, C, S> {
     watch: Watch,
     /// The controller's planned change ([`Controller::planned_change`]) on its clock edge,
     /// with the PWM output off and on: [`Ticks::NEVER`] where it would leave the gates as
-    /// they are; none after a tick whose command was refused. A plant step ends there too
-    /// (derived: read after each tick and when restored).
+    /// they are; none after a controller fault or a failed restore. A plant step ends there
+    /// too, unless it is not after the present (derived: read after each tick and when
+    /// restored).
     planned: [Ticks; 2],
     pwm_on: bool,
     wake: Ticks,
@@ -208,11 +209,13 @@ impl<P: Plant, C: Controller, S: PwmScheme> Engine<P, C, S> {
             Ticks(self.now.0 + 1).next_edge(self.sample_period)
         };
         let target = end.min(pwm_edge).min(self.wake).min(release).min(sample);
+        // A plan not after the present says nothing about where the step may end.
+        let planned = match self.planned[usize::from(self.pwm_on)] {
+            p if p > self.now => p,
+            _ => Ticks::NEVER,
+        };
         let watch = Watch {
-            horizon: pwm_edge
-                .min(release)
-                .min(self.planned[usize::from(self.pwm_on)])
-                .max(target),
+            horizon: pwm_edge.min(release).min(planned).max(target),
             ..self.watch
         };
         match self.plant.advance(target, watch) {
@@ -408,7 +411,12 @@ impl<P: Plant + Persist, C: Controller + Persist, S: PwmScheme> Persist for Engi
         self.masks = Self::masks_of(&self.scheme, &self.cmd.pattern);
         self.pwm_edge = None;
         self.watch = Self::watch_of(&self.cmd, self.controller.clock());
-        self.plan();
+        // A half-restored controller is not asked: its state may not hold together.
+        if restored.is_ok() {
+            self.plan();
+        } else {
+            self.planned = [Ticks::NEVER; 2];
+        }
         restored
     }
 }

@@ -206,7 +206,9 @@ impl PluginLibrary {
                 let src = std::ptr::addr_of!((*header).vtable).cast::<u8>();
                 let dst = v.as_mut_ptr().cast::<u8>();
                 std::ptr::write_bytes(dst, 0, full);
-                std::ptr::copy_nonoverlapping(src, dst, size.min(full));
+                // Whole function pointers only: a table ending inside one leaves it null.
+                let ptr = std::mem::size_of::<usize>();
+                std::ptr::copy_nonoverlapping(src, dst, size.min(full) / ptr * ptr);
                 v.assume_init()
             }
         };
@@ -484,8 +486,9 @@ impl PluginStrategy {
     }
 
     /// Asks the plugin for its planned change (ABI 1.2). Only a hint: without the function,
-    /// on an error or with legs the bridge cannot take, there is none.
-    fn refresh_plan(&mut self) {
+    /// on an error or with legs the bridge cannot take, there is none; a panic is the
+    /// plugin's fault, returned and kept (the next step reports it).
+    fn refresh_plan(&mut self) -> Result<(), String> {
         self.plan = None;
         let Some(f) = self
             .lib
@@ -493,13 +496,18 @@ impl PluginStrategy {
             .planned_change
             .filter(|_| self.lib.minor >= 2)
         else {
-            return;
+            return Ok(());
         };
         let (mut at, mut legs) = (u64::MAX, [0u8; 3]);
         let mut buf = ErrBuf::new();
         // SAFETY: live instance, valid out pointers.
-        if unsafe { f(self.inst, &mut at, &mut legs, buf.raw()) } != abi::OK || at == u64::MAX {
-            return;
+        match unsafe { f(self.inst, &mut at, &mut legs, buf.raw()) } {
+            abi::OK if at != u64::MAX => {}
+            abi::PANICKED => {
+                self.fail("planned_change", buf.message());
+                return Err(self.fault.clone().unwrap_or_default());
+            }
+            _ => return Ok(()),
         }
         let leg = |b: u8| match b {
             0 => Some(LegState::Float),
@@ -510,6 +518,7 @@ impl PluginStrategy {
         if let [Some(u), Some(v), Some(w)] = legs.map(leg) {
             self.plan = Some((Ticks(at), Abc { u, v, w }));
         }
+        Ok(())
     }
 
     fn push_inputs(&mut self) {
@@ -617,7 +626,8 @@ impl Controller for PluginStrategy {
                     crossings: st.crossings,
                     forced_crossings: st.forced_crossings,
                 };
-                self.refresh_plan();
+                // A panic there is kept as the fault, which the engine reports after this tick.
+                let _ = self.refresh_plan();
                 cmd
             }
             Err(m) => {
@@ -698,8 +708,7 @@ impl Strategy for PluginStrategy {
                 self.lib.path.display()
             )
         })?;
-        self.refresh_plan();
-        Ok(())
+        self.refresh_plan()
     }
     fn try_clone(&self) -> Result<Box<dyn Strategy>, String> {
         let mut buf = ErrBuf::new();

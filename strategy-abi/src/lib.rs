@@ -263,7 +263,12 @@ pub struct VTable {
     /// command other legs (e.g. a commutation timed by a counter), with those legs (as in
     /// [`CCommand::legs`]), if its inputs hold; `u64::MAX` in `at` for none. A hint the host
     /// reads after each `step` and `restore`: it ends the plant's integration step there.
-    /// `None` (a null pointer), or an error, is the same as none.
+    /// `None` (a null pointer), an error, legs that are not a valid `legs` value, legs equal
+    /// to those in force, or an instant not after the present are the same as none; a panic
+    /// is reported as the plugin's fault. The answer must be a function of the state `save`
+    /// writes, as of the last `step` or `restore` (`set_inputs` must not change it): the
+    /// host keeps it until the next step, and asks again after a restore, so anything else
+    /// makes a restored run differ from an uninterrupted one.
     pub planned_change: Option<
         unsafe extern "C" fn(
             inst: Instance,
