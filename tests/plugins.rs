@@ -187,6 +187,40 @@ fn a_panic_in_step_stops_the_run_with_an_error_not_a_crash() {
 }
 
 #[test]
+fn a_panic_in_planned_change_stops_the_run_with_an_error_naming_it() {
+    let err = with_mode("plan-panic", || {
+        let lib = PluginLibrary::load(&misbehaving()).unwrap();
+        let mut eng = build_plugin(&DriveConfig::default(), &lib).unwrap();
+        run_to(&mut eng, 0.01, |_, _| {}).unwrap_err()
+    });
+    let m = err.to_string();
+    assert!(
+        m.contains("planned_change") && m.contains("deliberate panic in planned_change"),
+        "{m}"
+    );
+}
+
+#[test]
+fn a_plan_the_bridge_cannot_take_or_long_past_is_no_hint() {
+    // Only a hint: the run goes on as without one, its gates those the steps command
+    // (the bridge off throughout).
+    for mode in ["plan-garbage", "plan-past"] {
+        let on = with_mode(mode, || {
+            let lib = PluginLibrary::load(&misbehaving()).unwrap();
+            let mut eng = build_plugin(&DriveConfig::default(), &lib).unwrap();
+            let mut on = false;
+            run_to(&mut eng, 0.01, |e, _| {
+                let g = e.gates();
+                on |= g.high.u || g.high.v || g.high.w || g.low.u || g.low.v || g.low.w;
+            })
+            .unwrap_or_else(|e| panic!("{mode}: {e}"));
+            on
+        });
+        assert!(!on, "{mode}: a planned pattern reached the gates");
+    }
+}
+
+#[test]
 fn a_shoot_through_command_is_refused_by_the_host() {
     let (err, gates) = with_mode("shoot-through", || {
         let lib = PluginLibrary::load(&misbehaving()).unwrap();

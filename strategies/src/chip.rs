@@ -926,7 +926,7 @@ mod tests {
 
     /// What the chip plans (alignment steps' ends, post parts' ends) is the instant and
     /// the pattern of its next pattern change, ticked at every clock edge with a clean
-    /// crossing in each sector.
+    /// crossing in each sector; a copy restored at each edge plans the same.
     #[test]
     fn a_planned_change_is_the_next_pattern_change() {
         let mut c = chip(5);
@@ -966,6 +966,15 @@ mod tests {
                 assert_eq!(plan.map(|p| p.0), Some(now), "unplanned change");
             }
             plan = c.planned_change();
+            // The plan is a function of the saved state: a chip restored here plans the same
+            // (the engine asks again after a restore).
+            let mut restored = chip(5);
+            drive_core::Persist::restore_from(
+                &mut restored,
+                &drive_core::Persist::to_bytes(&c).unwrap(),
+            )
+            .unwrap();
+            assert_eq!(restored.planned_change(), plan, "restored at {now:?}");
             assert!(
                 now < Ticks::from_seconds(2.0).unwrap(),
                 "12 planned ends by 2 s"

@@ -4,7 +4,9 @@
 //! `magic` (wrong magic), `major` (ABI major + 1), `null-header`, `panic` (step panics),
 //! `shoot-through` (step commands both switches of leg u on), `create-error`,
 //! `save-panic` and `restore-panic` (those calls panic), `save-huge` (save asks for more
-//! than the host accepts), `minor-0` (an ABI 1.0 plugin: no save or restore); anything
+//! than the host accepts), `minor-0` (an ABI 1.0 plugin: no save or restore),
+//! `plan-panic` (planned_change panics), `plan-garbage` (it plans legs no bridge takes, at
+//! the end of time), `plan-past` (it plans a change at tick 0, long past); anything
 //! else: a well-behaved strategy that keeps the bridge off and saves its state.
 
 use strategy_abi::{
@@ -58,6 +60,14 @@ impl Plugin for Misbehaving {
             "save-panic" => panic!("deliberate panic in save"),
             "save-huge" => Ok(vec![0; strategy_abi::MAX_STATE_BYTES + 1]),
             _ => Ok(b"ok".to_vec()),
+        }
+    }
+    fn planned_change(&self) -> Option<(u64, [u8; 3])> {
+        match self.mode.as_str() {
+            "plan-panic" => panic!("deliberate panic in planned_change"),
+            "plan-garbage" => Some((u64::MAX - 1, [LEG_HIGH | LEG_LOW, 7, 0])),
+            "plan-past" => Some((0, [LEG_HIGH, LEG_LOW, 0])),
+            _ => None,
         }
     }
     fn restore(&mut self, state: &[u8]) -> Result<(), String> {
