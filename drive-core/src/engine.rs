@@ -744,6 +744,52 @@ mod tests {
     }
 
     #[test]
+    fn a_plan_not_after_the_present_is_no_hint() {
+        use crate::bridge::LegState::{Float as F, High as V, Low as G};
+        // A controller that keeps planning a change at tick 0, one that would change the
+        // gates: the horizons are those of no plan (the last step, to 200, is given the
+        // PWM edge after it, not cut to its end).
+        struct Stale(Command);
+        impl Controller for Stale {
+            fn clock(&self) -> Ticks {
+                Ticks(32)
+            }
+            fn tick(&mut self, _now: Ticks, _s: &Sensed) -> Command {
+                self.0
+            }
+            fn planned_change(&self) -> Option<(Ticks, Pattern)> {
+                Some((Ticks::ZERO, Abc { u: F, v: G, w: V }))
+            }
+        }
+        let cmd = Command {
+            pattern: Abc { u: V, v: G, w: F },
+            duty: 50,
+            watch: Abc::splat(false),
+            reads: Abc::splat(Ticks::NEVER),
+            wake_at: Ticks::NEVER,
+        };
+        let mut e = Engine::new(
+            MockPlant::new(Ticks::NEVER),
+            Stale(cmd),
+            HighSideChop,
+            Carrier { top: 100 },
+            Ticks::ZERO,
+        );
+        let end = Ticks(200);
+        let mut h = Vec::new();
+        e.step(end).unwrap();
+        loop {
+            let r = e.step(end).unwrap();
+            h.push(e.plant.declared.horizon.0);
+            if r == StopReason::End {
+                break;
+            }
+        }
+        assert_eq!(h, horizons(None, end));
+        assert_eq!(h, vec![50, 150, 250]);
+    }
+
+    #[test]
     fn shoot_through_is_refused_not_simulated() {
         struct Bad;
         impl PwmScheme for Bad {

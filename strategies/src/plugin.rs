@@ -688,6 +688,8 @@ impl Strategy for PluginStrategy {
         }
     }
     fn restore_state(&mut self, r: &mut Reader) -> Result<(), String> {
+        // No plan survives a failed restore; a good one asks the plugin again.
+        self.plan = None;
         r.field("status", &mut self.status)?;
         r.field("inputs.now", &mut self.inputs.now)?;
         r.field("inputs.start", &mut self.inputs.start)?;
