@@ -705,9 +705,15 @@ mod tests {
             reads: Abc::splat(Ticks::NEVER),
             wake_at: plan.map_or(Ticks::NEVER, |p| p.0),
         };
+        horizons_of(Planner { cmd, plan }, end)
+    }
+
+    /// The horizons the plant is given over the steps up to `end` under `controller`, on
+    /// high-side chop with carrier top 100.
+    fn horizons_of(controller: impl Controller, end: Ticks) -> Vec<u64> {
         let mut e = Engine::new(
             MockPlant::new(Ticks::NEVER),
-            Planner { cmd, plan },
+            controller,
             HighSideChop,
             Carrier { top: 100 },
             Ticks::ZERO,
@@ -768,23 +774,8 @@ mod tests {
             reads: Abc::splat(Ticks::NEVER),
             wake_at: Ticks::NEVER,
         };
-        let mut e = Engine::new(
-            MockPlant::new(Ticks::NEVER),
-            Stale(cmd),
-            HighSideChop,
-            Carrier { top: 100 },
-            Ticks::ZERO,
-        );
         let end = Ticks(200);
-        let mut h = Vec::new();
-        e.step(end).unwrap();
-        loop {
-            let r = e.step(end).unwrap();
-            h.push(e.plant.declared.horizon.0);
-            if r == StopReason::End {
-                break;
-            }
-        }
+        let h = horizons_of(Stale(cmd), end);
         assert_eq!(h, horizons(None, end));
         assert_eq!(h, vec![50, 150, 250]);
     }
