@@ -509,15 +509,8 @@ impl PluginStrategy {
             }
             _ => return Ok(()),
         }
-        let leg = |b: u8| match b {
-            0 => Some(LegState::Float),
-            abi::LEG_HIGH => Some(LegState::High),
-            abi::LEG_LOW => Some(LegState::Low),
-            _ => None,
-        };
-        if let [Some(u), Some(v), Some(w)] = legs.map(leg) {
-            self.plan = Some((Ticks(at), Abc { u, v, w }));
-        }
+        // Legs a command could not carry are no plan.
+        self.plan = pattern_of(&legs).ok().map(|p| (Ticks(at), p));
         Ok(())
     }
 
@@ -532,35 +525,12 @@ impl PluginStrategy {
 
     /// Converts the plugin's command, refusing anything the bridge must never see.
     fn command(&self, c: &abi::CCommand) -> Result<Command, String> {
-        let mut legs = [LegState::Float; 3];
-        for (k, &bits) in c.legs.iter().enumerate() {
-            legs[k] = match bits {
-                0 => LegState::Float,
-                abi::LEG_HIGH => LegState::High,
-                abi::LEG_LOW => LegState::Low,
-                b if b == abi::LEG_HIGH | abi::LEG_LOW => {
-                    return Err(format!(
-                        "both switches of leg {} on: shoot-through refused (rule: at most one switch per leg)",
-                        ["u", "v", "w"][k]
-                    ));
-                }
-                b => {
-                    return Err(format!(
-                        "leg {} bits {b:#04b} (rule: 0, 1 high or 2 low)",
-                        ["u", "v", "w"][k]
-                    ));
-                }
-            };
-        }
+        let pattern = pattern_of(&c.legs)?;
         if c.duty > self.top {
             return Err(format!("duty {} counts (rule: 0..={})", c.duty, self.top));
         }
         Ok(Command {
-            pattern: Abc {
-                u: legs[0],
-                v: legs[1],
-                w: legs[2],
-            },
+            pattern,
             duty: c.duty,
             watch: Abc {
                 u: c.watch[0] != 0,
@@ -576,6 +546,36 @@ impl PluginStrategy {
             },
         })
     }
+}
+
+/// The legs of a plugin's command or plan (`CCommand::legs` bits), refusing anything the
+/// bridge must never see.
+fn pattern_of(legs: &[u8; 3]) -> Result<Pattern, String> {
+    let mut out = [LegState::Float; 3];
+    for (k, &bits) in legs.iter().enumerate() {
+        out[k] = match bits {
+            0 => LegState::Float,
+            abi::LEG_HIGH => LegState::High,
+            abi::LEG_LOW => LegState::Low,
+            b if b == abi::LEG_HIGH | abi::LEG_LOW => {
+                return Err(format!(
+                    "both switches of leg {} on: shoot-through refused (rule: at most one switch per leg)",
+                    ["u", "v", "w"][k]
+                ));
+            }
+            b => {
+                return Err(format!(
+                    "leg {} bits {b:#04b} (rule: 0, 1 high or 2 low)",
+                    ["u", "v", "w"][k]
+                ));
+            }
+        };
+    }
+    Ok(Abc {
+        u: out[0],
+        v: out[1],
+        w: out[2],
+    })
 }
 
 impl Controller for PluginStrategy {
