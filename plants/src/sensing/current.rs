@@ -40,8 +40,7 @@ pub struct CurrentSense {
     held: usize,
     keep: usize,
     coded_to: u64,
-    next_sample: u64,
-    /// `next_sample` / T_conv: the next sample's number.
+    /// The next sample's number: it is taken at tick `next_n`·T_conv.
     next_n: u64,
     /// The latest updates' pieces in a ring, the newest at `newest` mod its length (to cut
     /// it short, and to code its samples): a reused one's samples still held are coded
@@ -110,7 +109,6 @@ impl CurrentSense {
             held: 0,
             keep,
             coded_to: 1,
-            next_sample: conv,
             next_n: 1,
             updates: vec![
                 Update {
@@ -331,11 +329,11 @@ impl CurrentSense {
         self.set_pieces(h, start, end);
         let k_end = Ticks::at_or_before(t1).0;
         let from = self.next_n;
-        if self.next_sample <= k_end {
+        let next_sample = self.next_n * self.conv;
+        if next_sample <= k_end {
             // The samples in (t0, t1], coded when read.
-            let taken = (k_end - self.next_sample) / self.conv + 1;
+            let taken = (k_end - next_sample) / self.conv + 1;
             self.next_n += taken;
-            self.next_sample += taken * self.conv;
             self.held = (self.held as u64 + taken).min(self.keep as u64) as usize;
         }
         let u = &mut self.updates[slot];
@@ -396,7 +394,6 @@ impl CurrentSense {
             .saturating_sub(usize::try_from(forgotten).unwrap_or(usize::MAX));
         self.coded_to = self.coded_to.min(next_n);
         self.next_n = next_n;
-        self.next_sample = next_n * self.conv;
     }
 
     /// The latest conversion readable at `at` (which may lie a few conversions back), 0

@@ -39,7 +39,7 @@ impl Persist for CurrentSense {
     fn save(&self, w: &mut Writer) {
         self.y.save(w);
         self.conversions().save(w);
-        self.next_sample.save(w);
+        (self.next_n * self.conv).save(w);
         let u = &self.updates[self.newest % UPDATES];
         (u.pieces, u.t0).save(w);
     }
@@ -48,13 +48,14 @@ impl Persist for CurrentSense {
         r.field("y", &mut self.y)?;
         let mut results = VecDeque::<(u64, u16)>::new();
         r.field("results", &mut results)?;
-        r.field("next_sample", &mut self.next_sample)?;
+        let mut next_sample = 0u64;
+        r.field("next_sample", &mut next_sample)?;
         let u = &mut self.updates[self.newest % UPDATES];
         let mut last = (u.pieces, u.t0);
         r.field("last", &mut last)?;
         (u.pieces, u.t0) = last;
         self.check_pieces()?;
-        self.set_conversions(&results)
+        self.set_conversions(&results, next_sample)
     }
 }
 
@@ -67,10 +68,10 @@ impl CurrentSense {
     }
 
     /// Takes `results` (as [`CurrentSense::conversions`] gives them) into the ring, with
-    /// `next_sample` restored: they must be back to back, the newest the one before it.
-    /// All are coded then, no update holding any.
-    fn set_conversions(&mut self, results: &VecDeque<(u64, u16)>) -> Result<(), String> {
-        let (ns, conv) = (self.next_sample, self.conv);
+    /// the next sample's tick `ns`: they must be back to back, the newest the one before
+    /// it. All are coded then, no update holding any.
+    fn set_conversions(&mut self, results: &VecDeque<(u64, u16)>, ns: u64) -> Result<(), String> {
+        let conv = self.conv;
         check(ns % conv == 0 && ns > 0, || {
             format!("next_sample = {ns} (rule: a whole number of conversions, {conv} ticks each)")
         })?;
@@ -120,7 +121,7 @@ impl CurrentSense {
     pub(crate) fn check_against(&self, t: f64, longest: u64) -> Result<(), String> {
         let now = Ticks::at_or_before(t).0;
         let reach = longest.saturating_add(self.conv);
-        let ns = self.next_sample;
+        let ns = self.next_n * self.conv;
         check(ns.abs_diff(now) <= reach, || {
             format!("cur.next_sample = {ns} (rule: within {reach} ticks of the plant's tick {now})")
         })
