@@ -541,6 +541,15 @@ mod tests {
         }
     }
 
+    impl Persist for MockPlant {
+        fn save(&self, w: &mut Writer) {
+            self.t.save(w);
+        }
+        fn restore(&mut self, r: &mut Reader) -> Result<(), String> {
+            r.field("t", &mut self.t)
+        }
+    }
+
     struct Logger {
         calls: Vec<(Ticks, bool)>,
         cmd: Command,
@@ -778,6 +787,75 @@ mod tests {
         let h = horizons_of(Stale(cmd), end);
         assert_eq!(h, horizons(None, end));
         assert_eq!(h, vec![50, 150, 250]);
+    }
+
+    #[test]
+    fn a_controller_whose_restore_failed_is_not_asked_for_a_plan() {
+        use crate::bridge::LegState::{Float as F, High as V, Low as G};
+        /// Plans a change at `at`; its state holds together only once a restore has read
+        /// all of it, and a restore refuses an `at` of 0.
+        struct Strict {
+            cmd: Command,
+            at: Ticks,
+            whole: bool,
+        }
+        impl Controller for Strict {
+            fn clock(&self) -> Ticks {
+                Ticks(32)
+            }
+            fn tick(&mut self, _now: Ticks, _s: &Sensed) -> Command {
+                self.cmd
+            }
+            fn planned_change(&self) -> Option<(Ticks, Pattern)> {
+                assert!(self.whole, "asked for a plan with a half-restored state");
+                Some((self.at, Abc { u: F, v: G, w: V }))
+            }
+        }
+        impl Persist for Strict {
+            fn save(&self, w: &mut Writer) {
+                self.at.save(w);
+            }
+            fn restore(&mut self, r: &mut Reader) -> Result<(), String> {
+                self.whole = false;
+                r.field("at", &mut self.at)?;
+                check(self.at != Ticks::ZERO, || "at = 0 (rule: after 0)".into())?;
+                self.whole = true;
+                Ok(())
+            }
+        }
+        let cmd = Command {
+            pattern: Abc { u: V, v: G, w: F },
+            duty: 50,
+            watch: Abc::splat(false),
+            reads: Abc::splat(Ticks::NEVER),
+            wake_at: Ticks::NEVER,
+        };
+        let strict = |at| Strict {
+            cmd,
+            at,
+            whole: true,
+        };
+        let engine = |at| {
+            let plant = MockPlant::new(Ticks::NEVER);
+            Engine::new(
+                plant,
+                strict(at),
+                HighSideChop,
+                Carrier { top: 100 },
+                Ticks::ZERO,
+            )
+        };
+        let mut e = engine(Ticks(96));
+        e.step(Ticks(200)).unwrap();
+        let good = e.to_bytes().unwrap();
+        let bad = engine(Ticks::ZERO).to_bytes().unwrap();
+        // A whole restore asks for the plan again; a refused one leaves none and asks nothing.
+        let mut e = engine(Ticks(64));
+        e.restore_from(&good).unwrap();
+        assert_eq!(e.planned, [Ticks::NEVER, Ticks(96)]);
+        let err = e.restore_from(&bad).unwrap_err();
+        assert!(err.contains("at = 0"), "{err}");
+        assert_eq!(e.planned, [Ticks::NEVER; 2]);
     }
 
     #[test]
