@@ -140,6 +140,20 @@ fn a_wrong_magic_or_a_null_header_is_refused_before_anything_else_is_read() {
 }
 
 #[test]
+fn a_vtable_size_ending_inside_a_function_pointer_is_refused() {
+    let e = with_mode("vtable-mid-pointer", || PluginLibrary::load(&misbehaving())).unwrap_err();
+    let ptr = std::mem::size_of::<usize>();
+    let size = 8 * ptr + 4; // the eight functions of ABI 1.0, and half of `save`
+    assert!(matches!(e, PluginError::BadHeader { .. }), "{e}");
+    assert!(
+        e.to_string().contains(&format!(
+            "vtable of {size} bytes (rule: a whole number of {ptr}-byte function pointers)"
+        )),
+        "{e}"
+    );
+}
+
+#[test]
 fn a_newer_abi_major_is_refused_with_both_versions() {
     let e = with_mode("major", || PluginLibrary::load(&misbehaving())).unwrap_err();
     assert!(

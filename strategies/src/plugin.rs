@@ -197,6 +197,12 @@ impl PluginLibrary {
                 abi::VTABLE_1_0
             )));
         }
+        let ptr = std::mem::size_of::<usize>();
+        if size % ptr != 0 {
+            return Err(bad(format!(
+                "vtable of {size} bytes (rule: a whole number of {ptr}-byte function pointers)"
+            )));
+        }
         let vtable = {
             let full = std::mem::size_of::<abi::VTable>();
             let mut v = std::mem::MaybeUninit::<abi::VTable>::uninit();
@@ -206,9 +212,7 @@ impl PluginLibrary {
                 let src = std::ptr::addr_of!((*header).vtable).cast::<u8>();
                 let dst = v.as_mut_ptr().cast::<u8>();
                 std::ptr::write_bytes(dst, 0, full);
-                // Whole function pointers only: a table ending inside one leaves it null.
-                let ptr = std::mem::size_of::<usize>();
-                std::ptr::copy_nonoverlapping(src, dst, size.min(full) / ptr * ptr);
+                std::ptr::copy_nonoverlapping(src, dst, size.min(full));
                 v.assume_init()
             }
         };
@@ -281,6 +285,7 @@ impl PluginLibrary {
             },
             top: info.carrier_top,
             plan: None,
+            err: ErrBuf::new(),
         };
         let mut clock = 0u64;
         // SAFETY: live instance, valid out pointers.
@@ -329,26 +334,26 @@ impl PluginLibrary {
     }
 }
 
-/// A host-owned error buffer for one call.
+/// A host-owned error buffer, lent to one call at a time. Its pointer is set at each
+/// lending, so the buffer may move between calls (an instance keeps one for its ticks).
 struct ErrBuf {
     bytes: [u8; 512],
     raw: abi::ErrorBuf,
 }
 
 impl ErrBuf {
-    fn new() -> Box<Self> {
-        let mut b = Box::new(ErrBuf {
+    fn new() -> Self {
+        ErrBuf {
             bytes: [0; 512],
             raw: abi::ErrorBuf {
                 ptr: std::ptr::null_mut(),
                 cap: 512,
                 len: 0,
             },
-        });
-        b.raw.ptr = b.bytes.as_mut_ptr();
-        b
+        }
     }
     fn raw(&mut self) -> *mut abi::ErrorBuf {
+        self.raw.ptr = self.bytes.as_mut_ptr();
         self.raw.len = 0;
         &mut self.raw
     }
@@ -393,6 +398,8 @@ pub struct PluginStrategy {
     top: u32,
     /// The plugin's planned change (ABI 1.2), as of its last step or restore.
     plan: Option<(Ticks, Pattern)>,
+    /// The error buffer of the calls made at every tick (no allocation per call).
+    err: ErrBuf,
 }
 
 // SAFETY: the ABI requires instances to be movable between threads, and the host never
@@ -499,12 +506,12 @@ impl PluginStrategy {
             return Ok(());
         };
         let (mut at, mut legs) = (u64::MAX, [0u8; 3]);
-        let mut buf = ErrBuf::new();
         // SAFETY: live instance, valid out pointers.
-        match unsafe { f(self.inst, &mut at, &mut legs, buf.raw()) } {
+        match unsafe { f(self.inst, &mut at, &mut legs, self.err.raw()) } {
             abi::OK if at != u64::MAX => {}
             abi::PANICKED => {
-                self.fail("planned_change", buf.message());
+                let m = self.err.message();
+                self.fail("planned_change", m);
                 return Err(self.fault.clone().unwrap_or_default());
             }
             _ => return Ok(()),
@@ -515,10 +522,9 @@ impl PluginStrategy {
     }
 
     fn push_inputs(&mut self) {
-        let mut buf = ErrBuf::new();
         // SAFETY: live instance, valid pointers.
-        let code = unsafe { (self.lib.vtable.set_inputs)(self.inst, &self.inputs, buf.raw()) };
-        if let Err(m) = self.check(code, &buf) {
+        let code = unsafe { (self.lib.vtable.set_inputs)(self.inst, &self.inputs, self.err.raw()) };
+        if let Err(m) = self.check(code, &self.err) {
             self.fail("set_inputs", m);
         }
     }
@@ -593,11 +599,11 @@ impl Controller for PluginStrategy {
         };
         let mut c = abi::CCommand::default();
         let mut st = abi::CStatus::default();
-        let mut buf = ErrBuf::new();
         // SAFETY: live instance, valid pointers for the call.
-        let code =
-            unsafe { (self.lib.vtable.step)(self.inst, now.0, &s, &mut c, &mut st, buf.raw()) };
-        if let Err(m) = self.check(code, &buf) {
+        let code = unsafe {
+            (self.lib.vtable.step)(self.inst, now.0, &s, &mut c, &mut st, self.err.raw())
+        };
+        if let Err(m) = self.check(code, &self.err) {
             self.fail("step", m);
             return Command::OFF;
         }
@@ -733,6 +739,7 @@ impl Strategy for PluginStrategy {
             inputs: self.inputs,
             top: self.top,
             plan: self.plan,
+            err: ErrBuf::new(),
         }))
     }
 }

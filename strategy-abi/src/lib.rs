@@ -70,7 +70,8 @@ pub struct Header {
     pub name: *const c_char,
     /// One-line description, NUL-terminated UTF-8.
     pub description: *const c_char,
-    /// Size of the plugin's [`VTable`] in bytes.
+    /// Size of the plugin's [`VTable`] in bytes: a whole number of function pointers
+    /// (every entry is one), at least [`VTABLE_1_0`].
     pub vtable_size: u32,
     /// The functions.
     pub vtable: VTable,

@@ -6,7 +6,8 @@
 //! `save-panic` and `restore-panic` (those calls panic), `save-huge` (save asks for more
 //! than the host accepts), `minor-0` (an ABI 1.0 plugin: no save or restore),
 //! `plan-panic` (planned_change panics), `plan-garbage` (it plans legs no bridge takes, at
-//! the end of time), `plan-past` (it plans a change at tick 0, long past); anything
+//! the end of time), `plan-past` (it plans a change at tick 0, long past),
+//! `vtable-mid-pointer` (a table size that ends inside a function pointer); anything
 //! else: a well-behaved strategy that keeps the bridge off and saves its state.
 
 use strategy_abi::{
@@ -87,6 +88,7 @@ struct Headers {
     magic: Header,
     major: Header,
     minor_0: Header,
+    mid_pointer: Header,
 }
 
 const fn header(magic: [u8; 8], major: u32) -> Header {
@@ -109,11 +111,19 @@ const fn header_1_0() -> Header {
     h
 }
 
+/// A table size that ends inside a function pointer (`save`'s first half).
+const fn header_mid_pointer() -> Header {
+    let mut h = header(MAGIC, ABI_MAJOR);
+    h.vtable_size = (VTABLE_1_0 + 4) as u32;
+    h
+}
+
 static HEADERS: Headers = Headers {
     good: header(MAGIC, ABI_MAJOR),
     magic: header(*b"NOTBLDC!", ABI_MAJOR),
     major: header(MAGIC, ABI_MAJOR + 1),
     minor_0: header_1_0(),
+    mid_pointer: header_mid_pointer(),
 };
 
 /// The entry symbol, answering according to `BLDC_TEST_MISBEHAVE`.
@@ -124,6 +134,7 @@ pub extern "C" fn bldc_strategy_entry() -> *const Header {
         "major" => &HEADERS.major,
         "null-header" => std::ptr::null(),
         "minor-0" => &HEADERS.minor_0,
+        "vtable-mid-pointer" => &HEADERS.mid_pointer,
         _ => &HEADERS.good,
     }
 }
