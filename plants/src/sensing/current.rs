@@ -570,6 +570,44 @@ mod tests {
     }
 
     #[test]
+    fn a_restored_code_beyond_the_converter_is_refused() {
+        use drive_core::state::{Persist, Writer};
+        let p = CurrentSenseParams::default();
+        let mut c = CurrentSense::new(&p, 0.25, 80e-6);
+        c.update(0.0, 60e-6, (0.3, 0.0), (0.3, 0.0));
+        // The chain's bytes as it saves them, with the newest code set to `code`.
+        let bytes = |code: Option<u16>| {
+            let mut results = c.conversions();
+            if let Some(code) = code {
+                results.back_mut().unwrap().1 = code;
+            }
+            let mut w = Writer::new();
+            c.y.save(&mut w);
+            results.save(&mut w);
+            (c.next_n * c.conv).save(&mut w);
+            let u = &c.updates[c.newest % UPDATES];
+            (u.pieces, u.t0).save(&mut w);
+            w.finish().unwrap()
+        };
+        assert_eq!(
+            bytes(None),
+            c.to_bytes().unwrap(),
+            "written as the chain saves"
+        );
+        let top = (1u16 << p.adc_bits) - 1;
+        let mut r = CurrentSense::new(&p, 0.25, 80e-6);
+        r.restore_from(&bytes(Some(top))).unwrap();
+        let err = r.restore_from(&bytes(Some(top + 1))).unwrap_err();
+        assert!(
+            err.contains(&format!(
+                "= {} (rule: a code of the converter, 0..={top})",
+                top + 1
+            )),
+            "{err}"
+        );
+    }
+
+    #[test]
     fn a_restored_update_cut_short_reads_as_the_uninterrupted_one() {
         // A lookahead past the next gate change, saved, then cut short at the change and
         // followed by another current: the samples after the cut are taken again, from the

@@ -61,7 +61,7 @@ impl Persist for CurrentSense {
 
 impl CurrentSense {
     /// The conversions held, (readable from tick, code), oldest first.
-    fn conversions(&self) -> VecDeque<(u64, u16)> {
+    pub(super) fn conversions(&self) -> VecDeque<(u64, u16)> {
         (self.next_n - self.held as u64..self.next_n)
             .map(|n| ((n + 1) * self.conv, self.code_of(n)))
             .collect()
@@ -84,12 +84,16 @@ impl CurrentSense {
             )
         })?;
         let first = next_n - n as u64;
-        for (j, &(at, _)) in results.iter().enumerate() {
+        let top = self.max_code;
+        for (j, &(at, code)) in results.iter().enumerate() {
             let want = (first + j as u64 + 1) * conv;
             check(at == want, || {
                 format!(
                     "results[{j}].0 = {at} (rule: conversions back to back up to next_sample, here {want})"
                 )
+            })?;
+            check(code <= top, || {
+                format!("results[{j}].1 = {code} (rule: a code of the converter, 0..={top})")
             })?;
         }
         let mask = self.codes_ring.len() - 1;
