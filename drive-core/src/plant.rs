@@ -30,10 +30,10 @@ pub struct Watch {
     /// Sampling clock period: a change is reported at the first clock edge at or after it.
     pub clock: Ticks,
     /// The next instant at which the engine already knows the gates will change (PWM edge,
-    /// dead-time release, the controller's planned change). Only a hint: the plant may integrate ahead up to it and serve
-    /// earlier instants from that step, since a controller tick usually changes nothing.
-    /// Whatever changes the dynamics sooner (`set_gates`, load, rotor) still takes effect
-    /// exactly at its instant.
+    /// dead-time release, the controller's planned change). Only a hint: the plant may
+    /// integrate ahead up to it and serve earlier instants from that step, since a
+    /// controller tick usually changes nothing. Whatever changes the dynamics sooner
+    /// (`set_gates`, load, rotor) still takes effect exactly at its instant.
     pub horizon: Ticks,
 }
 
