@@ -614,7 +614,7 @@ impl BldcPlant {
             torque(&i_e, emf::sinusoid(sc_e)),
         );
         // The electrical powers do not depend on the speed; the airgap power is Te·ωm.
-        let (p_m, p_e) = (lin.powers(&i_m, &[0.0; 3]), lin.powers(&i_e, &[0.0; 3]));
+        let (p_m, p_e) = lin.drawn(&i_m, &i_e);
         let (r2, a2) = self.stage_rates(&p_m, te_m, w2, te_m * w2);
         let w3 = w0 + 0.5 * h * a2;
         let (r3, a3) = self.stage_rates(&p_m, te_m, w3, te_m * w3);
