@@ -604,10 +604,7 @@ impl BldcPlant {
         let rotate = |(s, c): (f64, f64)| (s * rc + c * rs, c * rc - s * rs);
         let sc_m = rotate(sc0);
         let sc_e = rotate(sc_m);
-        let (i_m, i_e) = (
-            rsp.currents(0.5 * h, sc_m, half),
-            rsp.currents(h, sc_e, full),
-        );
+        let [i_m, i_e] = rsp.currents_pair([0.5 * h, h], [sc_m, sc_e], [half, full]);
         let torque = |i: &[f64; 3], f: Abc<f64>| kl * (i[0] * f.u + i[1] * f.v + i[2] * f.w);
         let (te_m, te_e) = (
             torque(&i_m, emf::sinusoid(sc_m)),
