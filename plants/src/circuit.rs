@@ -720,7 +720,7 @@ impl Linearised {
     /// leg's kind weights: for finite currents the same values bit for bit, since a leg's
     /// zero weight adds ±0.0 to a sum that starts at +0.0 and so is never −0.0. The two
     /// sets side by side share the legs' decoding.
-    #[inline]
+    #[inline(always)]
     pub fn drawn(&self, a: &[f64; 3], b: &[f64; 3]) -> (Powers, Powers) {
         let (mut supply, mut copper, mut switch, mut diode, mut i_sh) =
             ([0.0; 2], [0.0; 2], [0.0; 2], [0.0; 2], [0.0; 2]);
