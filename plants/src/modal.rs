@@ -263,6 +263,8 @@ impl<'a> Response<'a> {
 
     /// [`Response::currents`] at two instants side by side, `t[l]` with sine and cosine
     /// `sc[l]` and decays `decays[l]`: the same values bit for bit, made lane by lane.
+    // The mode's index picks from five arrays.
+    #[allow(clippy::needless_range_loop)]
     #[inline(always)]
     pub fn currents_pair(
         &self,
