@@ -495,6 +495,7 @@ impl BldcPlant {
     /// The network's solution at a step's end, whose sin θ and cos θ are `sc`, returned
     /// with it: the derivative follows from them when it is needed (see
     /// [`BldcPlant::end_derivative`]).
+    #[inline(always)]
     fn solution_at(&self, x: &State, sc: (f64, f64)) -> (Solution, (f64, f64)) {
         let f = emf::shape_with(&self.shape, x[THETA], sc);
         let k = self.lambda * self.pp * x[OMEGA];
