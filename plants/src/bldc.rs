@@ -1193,6 +1193,7 @@ impl BldcPlant {
 
     /// Commits a step ending at `t1` with sin θ, cos θ `sc1` there (handling its diode
     /// event, if any).
+    #[inline(always)]
     fn finish_step(
         &mut self,
         x1: State,
