@@ -431,6 +431,7 @@ impl BldcPlant {
     /// network `s0`) to `x1` (network `s1`, sin θ and cos θ `sc1`), inside the step that
     /// starts at `base` (see [`Knot`]). Steps up to [`CHORD_S`] keep every voltage on its
     /// chord; longer ones take the end's derivative, made here for them alone.
+    #[inline(always)]
     fn knots(
         &self,
         (x0, f0, s0): (&State, &State, &Solution),
