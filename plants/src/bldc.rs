@@ -431,6 +431,7 @@ impl BldcPlant {
     /// network `s0`) to `x1` (network `s1`, sin θ and cos θ `sc1`), inside the step that
     /// starts at `base` (see [`Knot`]). Steps up to [`CHORD_S`] keep every voltage on its
     /// chord; longer ones take the end's derivative, made here for them alone.
+    #[inline(always)]
     fn knots(
         &self,
         (x0, f0, s0): (&State, &State, &Solution),
@@ -492,11 +493,11 @@ impl BldcPlant {
         self.assemble(x, &f, di, &p)
     }
 
-    /// The network's solution at a step's end inside the step that starts at `base`, with
-    /// sin θ and cos θ there: the derivative follows from them when it is needed (see
+    /// The network's solution at a step's end, whose sin θ and cos θ are `sc`, returned
+    /// with it: the derivative follows from them when it is needed (see
     /// [`BldcPlant::end_derivative`]).
-    fn solution_at(&self, x: &State, base: (f64, f64, f64)) -> (Solution, (f64, f64)) {
-        let sc = emf::sin_cos_near(x[THETA], base);
+    #[inline(always)]
+    fn solution_at(&self, x: &State, sc: (f64, f64)) -> (Solution, (f64, f64)) {
         let f = emf::shape_with(&self.shape, x[THETA], sc);
         let k = self.lambda * self.pp * x[OMEGA];
         let s = self.circuit.solve_planned_losses_later(
@@ -544,16 +545,36 @@ impl BldcPlant {
     /// `base` holds an angle near x's with its sine and cosine (every angle inside the
     /// step is reached from it by angle addition). The modal form's exact currents where
     /// there is one (sinusoidal back-EMF), else RK4.
+    #[inline]
     fn integrate_from(&self, x: &State, h: f64, base: (f64, f64, f64), k1: &State) -> State {
+        self.integrate_end(x, h, base, k1).0
+    }
+
+    /// [`BldcPlant::integrate_from`], with an angle near the end's with its sine and cosine:
+    /// the modal response's own angle there (see [`BldcPlant::flow_with`]), else `base`.
+    fn integrate_end(
+        &self,
+        x: &State,
+        h: f64,
+        base: (f64, f64, f64),
+        k1: &State,
+    ) -> (State, (f64, f64, f64)) {
         let (lin, md, _) = self.form();
         match md {
             Some(md) if self.modal => self.flow_from(md, lin, x, h, base, k1),
-            _ => self.rk4_from(x, h, base, k1),
+            _ => (self.rk4_from(x, h, base, k1), base),
         }
     }
 
-    /// A step of `h` from `x` (derivative `k1`) on a modal response already built for it.
-    fn flow_built(&self, x: &State, h: f64, k1: &State, b: &StepResponse) -> State {
+    /// A step of `h` from `x` (derivative `k1`) on a modal response already built for it,
+    /// with the response's angle at its end (see [`BldcPlant::flow_with`]).
+    fn flow_built(
+        &self,
+        x: &State,
+        h: f64,
+        k1: &State,
+        b: &StepResponse,
+    ) -> (State, (f64, f64, f64)) {
         self.flow_with(b.md, &self.form().0, x, h, k1, b.sc0, &b.rsp, b.omega_e)
     }
 
@@ -570,7 +591,7 @@ impl BldcPlant {
         h: f64,
         base: (f64, f64, f64),
         k1: &State,
-    ) -> State {
+    ) -> (State, (f64, f64, f64)) {
         let sc0 = emf::sin_cos_near(x[THETA], base);
         let forcing = self.forcing(x, h, k1, sc0);
         let rsp = Response::new(md, &[x[0], x[1], x[2]], sc0, &forcing);
@@ -578,7 +599,9 @@ impl BldcPlant {
     }
 
     /// [`BldcPlant::flow_from`] on a response already built, `rsp` (sin θ and cos θ at
-    /// the start `sc0`, the forcing's Ω `omega_e` [rad/s]).
+    /// the start `sc0`, the forcing's Ω `omega_e` [rad/s]); with the state, the response's
+    /// angle φ0 + Ω·h at the end with its sine and cosine, which the end's own angle leads
+    /// by a small δ (see [`emf::sin_cos_close`]).
     #[allow(clippy::too_many_arguments)]
     #[inline(always)]
     fn flow_with(
@@ -591,7 +614,7 @@ impl BldcPlant {
         sc0: (f64, f64),
         rsp: &Response,
         omega_e: f64,
-    ) -> State {
+    ) -> (State, (f64, f64, f64)) {
         let (w0, th0) = (x[OMEGA], x[THETA]);
         let kl = self.lambda * self.pp;
         let w2 = w0 + 0.5 * h * k1[OMEGA];
@@ -604,17 +627,14 @@ impl BldcPlant {
         let rotate = |(s, c): (f64, f64)| (s * rc + c * rs, c * rc - s * rs);
         let sc_m = rotate(sc0);
         let sc_e = rotate(sc_m);
-        let (i_m, i_e) = (
-            rsp.currents(0.5 * h, sc_m, half),
-            rsp.currents(h, sc_e, full),
-        );
+        let [i_m, i_e] = rsp.currents_pair([0.5 * h, h], [sc_m, sc_e], [half, full]);
         let torque = |i: &[f64; 3], f: Abc<f64>| kl * (i[0] * f.u + i[1] * f.v + i[2] * f.w);
         let (te_m, te_e) = (
             torque(&i_m, emf::sinusoid(sc_m)),
             torque(&i_e, emf::sinusoid(sc_e)),
         );
         // The electrical powers do not depend on the speed; the airgap power is Te·ωm.
-        let (p_m, p_e) = (lin.powers(&i_m, &[0.0; 3]), lin.powers(&i_e, &[0.0; 3]));
+        let (p_m, p_e) = lin.drawn(&i_m, &i_e);
         let (r2, a2) = self.stage_rates(&p_m, te_m, w2, te_m * w2);
         let w3 = w0 + 0.5 * h * a2;
         let (r3, a3) = self.stage_rates(&p_m, te_m, w3, te_m * w3);
@@ -630,7 +650,7 @@ impl BldcPlant {
             let k = E_SUPPLY + j;
             x1[k] += h / 6.0 * (k1[k] + 2.0 * (r2[j] + r3[j]) + r4[j]);
         }
-        x1
+        (x1, (th0 + omega_e * h, sc_e.0, sc_e.1))
     }
 
     /// The back-EMF's forcing of a step of `h` from `x` (derivative `k1`, sin θ and cos θ
@@ -1174,6 +1194,7 @@ impl BldcPlant {
 
     /// Commits a step ending at `t1` with sin θ, cos θ `sc1` there (handling its diode
     /// event, if any).
+    #[inline(always)]
     fn finish_step(
         &mut self,
         x1: State,
@@ -1443,17 +1464,17 @@ impl BldcPlant {
                 (Some(p), Some(b)) => Self::diode_zero(b, x0[p.index()], p, h).map(|t| (t, p)),
                 _ => None,
             };
-            let mut x1 = match &built {
+            let (mut x1, mut end) = match &built {
                 Some(b) => self.flow_built(&x0, zero.map_or(h, |z| z.0), &f0, b),
-                None => self.integrate_from(&x0, h, b0, &f0),
+                None => self.integrate_end(&x0, h, b0, &f0),
             };
             let predicted = zero.filter(|&(_, p)| x1[p.index()].abs() < 1e-9);
             match (zero, predicted, &built) {
                 (_, Some((hz, _)), _) => t1 = t0 + hz,
-                (Some(_), None, Some(b)) => x1 = self.flow_built(&x0, h, &f0, b),
+                (Some(_), None, Some(b)) => (x1, end) = self.flow_built(&x0, h, &f0, b),
                 _ => {} // no zero predicted (a predicted zero implies a built response)
             }
-            let (mut s1, mut sc1) = self.solution_at(&x1, b0);
+            let (mut s1, mut sc1) = self.solution_at(&x1, emf::sin_cos_close(x1[THETA], end, b0));
             let mut event = predicted.map(|(_, p)| p);
             let step = Dense {
                 x0: &x0,
@@ -1473,7 +1494,7 @@ impl BldcPlant {
                 // The step to the event is integrated (not interpolated), so the energy
                 // integrals stay consistent with the currents.
                 x1 = at.unwrap_or_else(|| self.integrate_from(&x0, h_ev, b0, &f0));
-                (s1, sc1) = self.solution_at(&x1, b0);
+                (s1, sc1) = self.solution_at(&x1, emf::sin_cos_near(x1[THETA], b0));
                 t1 = t0 + h_ev;
                 event = Some(p);
             }
@@ -1633,12 +1654,12 @@ mod tests {
             let k1 = pl.deriv(&dynamic(&x0), b);
             let built = pl.step_response(&x0, &k1, h, b).expect("a modal form");
             let (full, own) = (
-                pl.flow_built(&x0, h, &k1, &built),
+                pl.flow_built(&x0, h, &k1, &built).0,
                 pl.integrate_from(&x0, h, b, &k1),
             );
             assert_eq!(full.map(f64::to_bits), own.map(f64::to_bits), "{rpm} rpm");
             for hz in [h / 3.0, 0.7 * h] {
-                let got = pl.flow_built(&x0, hz, &k1, &built);
+                let got = pl.flow_built(&x0, hz, &k1, &built).0;
                 let own = pl.integrate_from(&x0, hz, b, &k1);
                 let want = fine(&pl, &x0, hz, 2000);
                 let (di, dw) = (err(&got, &want), (got[OMEGA] - want[OMEGA]).abs());
@@ -1677,15 +1698,22 @@ mod tests {
                     let x0 = pl.x;
                     let b = BldcPlant::base(&x0);
                     let k1 = pl.deriv(&dynamic(&x0), b);
-                    let got = pl.flow_from(&md, &lin, &x0, h, b, &k1);
+                    let (got, end) = pl.flow_from(&md, &lin, &x0, h, b, &k1);
                     let want = fine(&pl, &x0, h, 2000);
+                    // The end's sine and cosine from the response's angle there, which it
+                    // leads by pp·h²·(α2 + α3 − 2α1)/6 (1.1e-6 rad here, with the torque's
+                    // fast rise), far within the small rotation's 1e-4.
+                    assert!((got[THETA] - end.0).abs() < 1e-5, "{case}");
+                    let (s, c) = emf::sin_cos_close(got[THETA], end, b);
+                    let (ws, wc) = got[THETA].sin_cos();
+                    assert!((s - ws).abs() < 1e-12 && (c - wc).abs() < 1e-12, "{case}");
                     let (di, dw) = (err(&got, &want), (got[OMEGA] - want[OMEGA]).abs());
                     let (bi, bw) = if lock { (1e-13, 0.0) } else { (1e-7, 2e-7) };
                     assert!(di <= bi && dw <= bw, "{case}: {di:e} A, {dw:e} rad/s");
                     if !lock {
                         // Fourth order: half the step, a sixteenth of the error (third
                         // order, as without the torque's rate of change, an eighth).
-                        let half = pl.flow_from(&md, &lin, &x0, h / 2.0, b, &k1);
+                        let half = pl.flow_from(&md, &lin, &x0, h / 2.0, b, &k1).0;
                         let e2 = err(&half, &fine(&pl, &x0, h / 2.0, 2000));
                         assert!(e2 < di / 12.0, "{case}: {di:e} A, then {e2:e} A at h/2");
                     }

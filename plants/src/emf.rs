@@ -27,6 +27,24 @@ pub fn sin_cos_near(theta: f64, base: (f64, f64, f64)) -> (f64, f64) {
     (sb * cd + cb * sd, cb * cd - sb * sd)
 }
 
+/// The largest |θ − near| for which [`sin_cos_close`] rotates by sin d = d and
+/// cos d = 1 − d²/2: within d³/6 < 1.7e-13 and d⁴/24 of them.
+const CLOSE: f64 = 1e-4;
+
+/// sin and cos of `theta` from those of an angle `near` it (a step's end from its modal
+/// response's angle there) by a rotation to second order in their difference d, where
+/// |d| ≤ 1e-4 rad; else [`sin_cos_near`] from `base`.
+#[inline(always)]
+pub fn sin_cos_close(theta: f64, near: (f64, f64, f64), base: (f64, f64, f64)) -> (f64, f64) {
+    let (n, sn, cn) = near;
+    let d = theta - n;
+    if d.abs() > CLOSE {
+        return sin_cos_near(theta, base);
+    }
+    let cd = 1.0 - 0.5 * d * d;
+    (sn * cd + cn * d, cn * cd - sn * d)
+}
+
 /// sin and cos of a small angle `d` \[rad\]: [`sin_cos_near`] from the base angle 0 (the
 /// same values bit for bit), without its angle addition's products with sin 0 and cos 0.
 pub fn rotation(d: f64) -> (f64, f64) {
@@ -205,6 +223,30 @@ mod tests {
         for d in [0.0, -0.0, 1e-300, 1e-3, -0.2, 0.5, 0.7, -3.0] {
             let want = sin_cos_near(d, (0.0, 0.0, 1.0));
             assert_eq!(rotation(d), want, "{d}");
+        }
+    }
+
+    /// A small rotation from a nearby angle holds sin and cos within 1e-12 up to |d| = 1e-4
+    /// (the bound of its error terms, far above their 1.7e-13), and beyond it the angle
+    /// addition from the base is taken as it is.
+    #[test]
+    fn a_close_angle_s_rotation_matches_sin_cos() {
+        let base = (0.9f64, 0.9f64.sin(), 0.9f64.cos());
+        for th in [0.9f64, 1.0, 2.5, -1.3] {
+            let near = (th, th.sin(), th.cos());
+            for d in [0.0, -0.0, 1e-12, -3e-7, 5e-5, -1e-4, 1e-4] {
+                let (s, c) = sin_cos_close(th + d, near, base);
+                let (ws, wc) = (th + d).sin_cos();
+                assert!((s - ws).abs() < 1e-12 && (c - wc).abs() < 1e-12, "{th} {d}");
+            }
+        }
+        let near = (1.0, 1.0f64.sin(), 1.0f64.cos());
+        for th in [1.00011, 0.9998, 1.2] {
+            assert_eq!(
+                sin_cos_close(th, near, base),
+                sin_cos_near(th, base),
+                "{th}"
+            );
         }
     }
 
