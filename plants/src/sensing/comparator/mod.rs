@@ -105,8 +105,14 @@ impl History {
     /// Earliest toggle tick strictly after `tick`.
     fn first_after(&self, tick: u64) -> Option<u64> {
         // Usually there is none: the newest toggle says so without a walk.
-        if self.newest().is_none_or(|(t, _)| t <= tick) {
+        let newest = self.newest()?.0;
+        if newest <= tick {
             return None;
+        }
+        // Else usually the newest alone (one toggle not yet seen): the one before says so.
+        let n = self.toggles.len();
+        if n < 2 || self.toggles[n - 2].0 <= tick {
+            return Some(newest);
         }
         self.toggles
             .iter()
