@@ -646,10 +646,15 @@ impl ComparatorBank {
 
     /// Walks the rest of the present step for the `watched` channels: their changes are
     /// looked for tick by tick from now on.
+    ///
+    /// The slots in a plain loop, the pending one's first: the engine calls this at every
+    /// advance, and there is rarely a scan pending (a filtered iterator over the phases
+    /// cost ≈ 40 instructions a call).
     pub fn watch(&mut self, watched: Abc<bool>) {
-        for x in Phase::ALL.into_iter().filter(|&x| watched.get(x)) {
-            let slot = &mut self.pending[x.index()];
-            if let Some(cur) = slot {
+        for (slot, w) in self.pending.iter_mut().zip(watched.to_array()) {
+            if let Some(cur) = slot
+                && w
+            {
                 self.front.scan_to(cur, u64::MAX);
                 *slot = None;
             }
