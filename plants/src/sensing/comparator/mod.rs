@@ -95,6 +95,12 @@ impl History {
     }
 
     fn state_at(&self, tick: u64) -> bool {
+        // Usually the newest toggle says so without a walk (or there is none).
+        match self.toggles.back() {
+            None => return self.base,
+            Some(&(t, s)) if t <= tick => return s,
+            Some(_) => {}
+        }
         self.toggles
             .iter()
             .rev()
