@@ -622,6 +622,9 @@ impl ComparatorBank {
     /// `at` − delay). Where the input is certainly beyond a threshold at that tick, the
     /// ticks before it need not be walked: what is read is the same.
     pub fn catch_up(&mut self, at: Ticks) {
+        if !self.any_pending() {
+            return;
+        }
         let q = at.0.saturating_sub(self.front.delay);
         let f = &mut self.front;
         for slot in &mut self.pending {
@@ -653,10 +656,13 @@ impl ComparatorBank {
     /// Walks the rest of the present step for the `watched` channels: their changes are
     /// looked for tick by tick from now on.
     ///
-    /// The slots in a plain loop, the pending one's first: the engine calls this at every
-    /// advance, and there is rarely a scan pending (a filtered iterator over the phases
-    /// cost ≈ 40 instructions a call).
+    /// The engine calls this at every advance, and there is rarely a scan pending: that is
+    /// asked first, and the slots are then checked in a plain loop (a filtered iterator
+    /// over the phases cost ≈ 40 instructions a call).
     pub fn watch(&mut self, watched: Abc<bool>) {
+        if !self.any_pending() {
+            return;
+        }
         for (slot, w) in self.pending.iter_mut().zip(watched.to_array()) {
             if let Some(cur) = slot
                 && w
@@ -673,9 +679,17 @@ impl ComparatorBank {
     /// Inlined: at most updates and edges there are none.
     #[inline(always)]
     fn finish_pending(&mut self, k_stop: u64) {
-        if self.pending.iter().any(Option::is_some) {
+        if self.any_pending() {
             self.finish_pending_scans(k_stop);
         }
+    }
+
+    /// Whether a scan is pending: the three slots tested at once, without a loop (the
+    /// engine's every advance and the plant's every step ask, and mostly none is).
+    #[inline(always)]
+    fn any_pending(&self) -> bool {
+        let [u, v, w] = &self.pending;
+        u.is_some() | v.is_some() | w.is_some()
     }
 
     /// [`ComparatorBank::finish_pending`] when a scan is pending.
