@@ -415,7 +415,11 @@ impl ComparatorBank {
         };
         let g = f.ring_gain * dv;
         f.ring.z = (re + g * dr, im + g * di);
-        f.ring.mag = f.ring.z.0.hypot(f.ring.z.1);
+        // |z| by a square root (one instruction; `hypot`, a libm call, guards against
+        // overflow far beyond volts), raised by 4 ulps so that it still bounds |z|
+        // whatever the rounding of its three operations.
+        f.ring.mag =
+            (f.ring.z.0 * f.ring.z.0 + f.ring.z.1 * f.ring.z.1).sqrt() * (1.0 + 4.0 * f64::EPSILON);
         f.ring.k = k;
         f.ring.t = Ticks(k).seconds();
     }
