@@ -1100,15 +1100,20 @@ impl Front {
     /// decayed below a nanovolt is dropped first, so that bounds skip the envelope.
     fn record(&mut self, t0: f64, t1: f64, k0: &Knot, k1: &Knot, rec: &mut Record) {
         let h = t1 - t0;
-        if self.ring.mag != 0.0 && self.ring_envelope(t0) < 1e-9 {
+        let k_start = Ticks::at_or_before(t0).0 + 1;
+        // The envelope at the first tick, at most a tick after t0, is below the one at t0
+        // (it decays by 2e-5 a tick or more, τr ≤ 1 ms, far beyond rounding): where it is a
+        // nanovolt or more, so is the one at t0, which is then not computed.
+        let mut env_first = self.ring_envelope_at(k_start);
+        if self.ring.mag != 0.0 && env_first < 1e-9 && self.ring_envelope(t0) < 1e-9 {
             self.ring.z = (0.0, 0.0);
             self.ring.mag = 0.0;
+            env_first = 0.0;
         }
         // One division per step: the four filter inputs' slopes share 1/h.
         let inv_h = 1.0 / h;
         let dvn = (k1.vn - k0.vn) * inv_h;
         let fn_ = Foh::ramp(self.y_n, k0.vn, dvn, self.tau_n);
-        let k_start = Ticks::at_or_before(t0).0 + 1;
         // Steps repeat their lengths (PWM half-periods, the solver's longest step): cache;
         // a length of whole ticks (most are) by table.
         if self.decay_cache.0 != h {
@@ -1152,7 +1157,7 @@ impl Front {
         rec.fn_ = fn_;
         rec.eh = (self.decay_cache.1, self.decay_cache.2);
         rec.first = first;
-        rec.env_first = self.ring_envelope_at(k_start);
+        rec.env_first = env_first;
         rec.ring = self.ring;
         // Every field above, or the slot keeps an older step's value: this pattern names
         // them all, so a field added to `Record` fails to compile until written here.
