@@ -95,6 +95,12 @@ impl History {
     }
 
     fn state_at(&self, tick: u64) -> bool {
+        // Usually the newest toggle says so without a walk (or there is none).
+        match self.toggles.back() {
+            None => return self.base,
+            Some(&(t, s)) if t <= tick => return s,
+            Some(_) => {}
+        }
         self.toggles
             .iter()
             .rev()
@@ -105,8 +111,14 @@ impl History {
     /// Earliest toggle tick strictly after `tick`.
     fn first_after(&self, tick: u64) -> Option<u64> {
         // Usually there is none: the newest toggle says so without a walk.
-        if self.newest().is_none_or(|(t, _)| t <= tick) {
+        let newest = self.newest()?.0;
+        if newest <= tick {
             return None;
+        }
+        // Else usually the newest alone (one toggle not yet seen): the one before says so.
+        let n = self.toggles.len();
+        if n < 2 || self.toggles[n - 2].0 <= tick {
+            return Some(newest);
         }
         self.toggles
             .iter()
@@ -403,7 +415,11 @@ impl ComparatorBank {
         };
         let g = f.ring_gain * dv;
         f.ring.z = (re + g * dr, im + g * di);
-        f.ring.mag = f.ring.z.0.hypot(f.ring.z.1);
+        // |z| by a square root (one instruction; `hypot`, a libm call, guards against
+        // overflow far beyond volts), raised by 4 ulps so that it still bounds |z|
+        // whatever the rounding of its three operations.
+        f.ring.mag =
+            (f.ring.z.0 * f.ring.z.0 + f.ring.z.1 * f.ring.z.1).sqrt() * (1.0 + 4.0 * f64::EPSILON);
         f.ring.k = k;
         f.ring.t = Ticks(k).seconds();
     }
@@ -610,6 +626,9 @@ impl ComparatorBank {
     /// `at` − delay). Where the input is certainly beyond a threshold at that tick, the
     /// ticks before it need not be walked: what is read is the same.
     pub fn catch_up(&mut self, at: Ticks) {
+        if !self.any_pending() {
+            return;
+        }
         let q = at.0.saturating_sub(self.front.delay);
         let f = &mut self.front;
         for slot in &mut self.pending {
@@ -640,10 +659,18 @@ impl ComparatorBank {
 
     /// Walks the rest of the present step for the `watched` channels: their changes are
     /// looked for tick by tick from now on.
+    ///
+    /// The engine calls this at every advance, and there is rarely a scan pending: that is
+    /// asked first, and the slots are then checked in a plain loop (a filtered iterator
+    /// over the phases cost ≈ 40 instructions a call).
     pub fn watch(&mut self, watched: Abc<bool>) {
-        for x in Phase::ALL.into_iter().filter(|&x| watched.get(x)) {
-            let slot = &mut self.pending[x.index()];
-            if let Some(cur) = slot {
+        if !self.any_pending() {
+            return;
+        }
+        for (slot, w) in self.pending.iter_mut().zip(watched.to_array()) {
+            if let Some(cur) = slot
+                && w
+            {
                 self.front.scan_to(cur, u64::MAX);
                 *slot = None;
             }
@@ -656,9 +683,17 @@ impl ComparatorBank {
     /// Inlined: at most updates and edges there are none.
     #[inline(always)]
     fn finish_pending(&mut self, k_stop: u64) {
-        if self.pending.iter().any(Option::is_some) {
+        if self.any_pending() {
             self.finish_pending_scans(k_stop);
         }
+    }
+
+    /// Whether a scan is pending: the three slots tested at once, without a loop (the
+    /// engine's every advance and the plant's every step ask, and mostly none is).
+    #[inline(always)]
+    fn any_pending(&self) -> bool {
+        let [u, v, w] = &self.pending;
+        u.is_some() | v.is_some() | w.is_some()
     }
 
     /// [`ComparatorBank::finish_pending`] when a scan is pending.
@@ -1065,15 +1100,20 @@ impl Front {
     /// decayed below a nanovolt is dropped first, so that bounds skip the envelope.
     fn record(&mut self, t0: f64, t1: f64, k0: &Knot, k1: &Knot, rec: &mut Record) {
         let h = t1 - t0;
-        if self.ring.mag != 0.0 && self.ring_envelope(t0) < 1e-9 {
+        let k_start = Ticks::at_or_before(t0).0 + 1;
+        // The envelope at the first tick, at most a tick after t0, is below the one at t0
+        // (it decays by 2e-5 a tick or more, τr ≤ 1 ms, far beyond rounding): where it is a
+        // nanovolt or more, so is the one at t0, which is then not computed.
+        let mut env_first = self.ring_envelope_at(k_start);
+        if self.ring.mag != 0.0 && env_first < 1e-9 && self.ring_envelope(t0) < 1e-9 {
             self.ring.z = (0.0, 0.0);
             self.ring.mag = 0.0;
+            env_first = 0.0;
         }
         // One division per step: the four filter inputs' slopes share 1/h.
         let inv_h = 1.0 / h;
         let dvn = (k1.vn - k0.vn) * inv_h;
         let fn_ = Foh::ramp(self.y_n, k0.vn, dvn, self.tau_n);
-        let k_start = Ticks::at_or_before(t0).0 + 1;
         // Steps repeat their lengths (PWM half-periods, the solver's longest step): cache;
         // a length of whole ticks (most are) by table.
         if self.decay_cache.0 != h {
@@ -1117,7 +1157,7 @@ impl Front {
         rec.fn_ = fn_;
         rec.eh = (self.decay_cache.1, self.decay_cache.2);
         rec.first = first;
-        rec.env_first = self.ring_envelope_at(k_start);
+        rec.env_first = env_first;
         rec.ring = self.ring;
         // Every field above, or the slot keeps an older step's value: this pattern names
         // them all, so a field added to `Record` fails to compile until written here.
