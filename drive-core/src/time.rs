@@ -28,6 +28,13 @@ fn to_count(k: f64) -> u64 {
     (k as i64).max(0) as u64
 }
 
+/// `k` as f64 for a count beyond i64 (see [`Ticks::count_f64`]).
+#[cold]
+#[inline(never)]
+fn beyond_i64(k: u64) -> f64 {
+    k as f64
+}
+
 /// An instant or a duration counted in master ticks (20 ns).
 #[derive(
     Copy, Clone, Debug, Default, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize,
@@ -82,12 +89,14 @@ impl Ticks {
     }
 
     /// The count as f64, through i64 where it fits: baseline x86-64 converts signed
-    /// integers in one instruction, unsigned ones in a branchy sequence.
+    /// integers in one instruction, unsigned ones in a sequence of six. Counts beyond i64
+    /// ([`Ticks::NEVER`]) go out of line: with both conversions inline the compiler sees
+    /// that they agree and emits the unsigned sequence for every count.
+    #[inline(always)]
     fn count_f64(self) -> f64 {
-        match i64::try_from(self.0) {
-            Ok(k) => k as f64,
-            Err(_) => self.0 as f64,
-        }
+        let k = self.0 as i64;
+        let f = k as f64;
+        if k < 0 { beyond_i64(self.0) } else { f }
     }
 
     /// The first instant `>= self` that is a whole multiple of `period` (a clock edge).
