@@ -13,6 +13,7 @@
 use super::rc::{CubicRc, ExpTable};
 use crate::params::CurrentSenseParams;
 use drive_core::{TICK_S, Ticks};
+use std::cell::Cell;
 
 mod state;
 
@@ -47,6 +48,10 @@ pub struct CurrentSense {
     /// first.
     updates: Box<[Update]>,
     newest: usize,
+    /// The last sample coded for a read and its code, (`u64::MAX`, 0) for none: the
+    /// controller often reads one sample at several ticks within a conversion (derived;
+    /// forgotten with the sample by a cut and by a restore).
+    read: Cell<(u64, u16)>,
 }
 
 /// One update's filter pieces, its start \[s\] and the numbers of the samples it took,
@@ -58,6 +63,9 @@ struct Update {
     from: u64,
     to: u64,
 }
+
+/// No sample coded for a read (see `CurrentSense::read`).
+const NO_READ: (u64, u16) = (u64::MAX, 0);
 
 /// Updates kept: a power of two, and more than take place while a sample is held (a
 /// few conversions), so that a sample read is seldom coded before it is.
@@ -125,6 +133,7 @@ impl CurrentSense {
             ]
             .into_boxed_slice(),
             newest: 0,
+            read: Cell::new(NO_READ),
         }
     }
 
@@ -369,10 +378,16 @@ impl CurrentSense {
         if n < self.coded_to {
             return self.codes_ring[n as usize & (self.codes_ring.len() - 1)];
         }
-        (0..UPDATES)
+        let (read, code) = self.read.get();
+        if read == n {
+            return code;
+        }
+        let code = (0..UPDATES)
             .map(|j| &self.updates[self.newest.wrapping_sub(j) % UPDATES])
             .find(|u| u.from <= n && n < u.to)
-            .map_or(0, |u| self.code_in(u, n))
+            .map_or(0, |u| self.code_in(u, n));
+        self.read.set((n, code));
+        code
     }
 
     /// Cuts the last update short at `t` \[s\] (inside it): samples after `t` are forgotten
@@ -394,6 +409,9 @@ impl CurrentSense {
             .saturating_sub(usize::try_from(forgotten).unwrap_or(usize::MAX));
         self.coded_to = self.coded_to.min(next_n);
         self.next_n = next_n;
+        if self.read.get().0 >= next_n {
+            self.read.set(NO_READ);
+        }
     }
 
     /// The latest conversion readable at `at` (which may lie a few conversions back), 0
@@ -566,6 +584,52 @@ mod tests {
                 assert_eq!(r.code_at(at), got, "restored, update {k}");
                 assert_eq!(r.to_bytes().unwrap(), c.to_bytes().unwrap(), "update {k}");
             }
+        }
+    }
+
+    #[test]
+    fn a_sample_read_then_cut_or_restored_away_reads_as_taken_again() {
+        // A chain that read its newest samples (remembering the last) against one that did
+        // not: after a cut before those samples, and after a restore of an earlier state,
+        // both take them again from a different current and read the new codes.
+        use drive_core::state::Persist;
+        let p = CurrentSenseParams::default();
+        let fresh = || CurrentSense::new(&p, 0.25, 80e-6);
+        let (mut c, mut d) = (fresh(), fresh());
+        let mut t = 0.0;
+        let mut saved = None;
+        let newest = |x: &CurrentSense| Ticks(x.next_n * x.conv);
+        for k in 0..30 {
+            for x in [&mut c, &mut d] {
+                x.update(t, t + 10e-6, (0.2, 0.0), (0.2, 0.0));
+            }
+            t += 10e-6;
+            assert_eq!(c.code_at(newest(&c)), d.code_at(newest(&d)));
+            if k == 20 {
+                saved = Some(c.to_bytes().unwrap());
+            }
+        }
+        let read = newest(&c);
+        assert_eq!(c.code_at(read), 1638, "0.2 A settled: 4 V of 10 V, 12 bits");
+        // Cut 25 µs back (the sample just read is forgotten), then 0.4 A: code 3276.
+        for x in [&mut c, &mut d] {
+            x.truncate_at(t - 25e-6);
+            x.update(t - 25e-6, t + 60e-6, (0.4, 0.0), (0.4, 0.0));
+        }
+        assert_eq!(c.code_at(read), d.code_at(read));
+        assert_ne!(c.code_at(read), 1638, "the sample was taken again");
+        // Back to an earlier state, then 0.1 A up to the instant read.
+        let later = Ticks(read.0 + 2 * c.conv);
+        assert_eq!(c.code_at(later), d.code_at(later));
+        let saved = saved.expect("saved at update 20");
+        let t_saved = 210e-6;
+        for x in [&mut c, &mut d] {
+            x.restore_from(&saved).unwrap();
+            x.update(t_saved, t + 60e-6, (0.1, 0.0), (0.1, 0.0));
+        }
+        for at in [later, read] {
+            assert_eq!(c.code_at(at), d.code_at(at), "{at:?}");
+            assert!(c.code_at(at) < 1638, "{at:?}: taken again from 0.1 A");
         }
     }
 
