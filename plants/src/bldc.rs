@@ -1349,7 +1349,8 @@ impl Plant for BldcPlant {
         self.cmp.excite(self.t, dv);
     }
 
-    fn advance(&mut self, until: Ticks, watch: Watch) -> PlantStop {
+    fn advance(&mut self, until: Ticks, watch: &Watch) -> PlantStop {
+        let watch = *watch;
         self.cmp.declare(self.tick.0, watch.channels, watch.reads);
         // Unwatched comparators are walked only as far as they are read: at the instant
         // returned, and from now on for the channels watched now.
