@@ -46,7 +46,7 @@ pub struct CurrentSense {
     /// The latest updates' pieces in a ring, the newest at `newest` mod its length (to cut
     /// it short, and to code its samples): a reused one's samples still held are coded
     /// first.
-    updates: Box<[Update]>,
+    updates: Box<[Update; UPDATES]>,
     newest: usize,
     /// The last sample coded for a read and its code, (`u64::MAX`, 0) for none: the
     /// controller often reads one sample at several ticks within a conversion (derived;
@@ -118,8 +118,9 @@ impl CurrentSense {
             keep,
             coded_to: 1,
             next_n: 1,
-            updates: vec![
-                Update {
+            // An array, not a slice: a slot index mod UPDATES needs no bounds check.
+            updates: Box::new(
+                [Update {
                     pieces: Pieces {
                         seg: [CubicRc::new(0.0, 0.0, [0.0; 4], 1.0); 7],
                         n: 1,
@@ -128,10 +129,8 @@ impl CurrentSense {
                     t0: 0.0,
                     from: 1,
                     to: 1,
-                };
-                UPDATES
-            ]
-            .into_boxed_slice(),
+                }; UPDATES],
+            ),
             newest: 0,
             read: Cell::new(NO_READ),
         }
