@@ -10,7 +10,7 @@
 //! (regeneration, diode freewheeling into the supply) clips to code 0, as on a single-supply
 //! amplifier.
 
-use super::rc::{CubicRc, ExpTable};
+use super::rc::{CubicRc, ExpTable, TauTerms};
 use crate::params::CurrentSenseParams;
 use drive_core::{TICK_S, Ticks};
 use std::cell::Cell;
@@ -22,7 +22,8 @@ mod state;
 pub struct CurrentSense {
     volts_per_amp: f64,
     max_v: f64,
-    tau: f64,
+    /// The filter's time constant T and its products, for each piece.
+    tau_terms: TauTerms,
     /// e^{−t/T} by table: the transient's decay at each sample and piece's end.
     decay: ExpTable<1>,
     codes: f64,
@@ -105,7 +106,7 @@ impl CurrentSense {
         CurrentSense {
             volts_per_amp: shunt_ohm * p.amplifier_gain,
             max_v: p.amplifier_max_v,
-            tau,
+            tau_terms: TauTerms::new(tau),
             decay: ExpTable::new([-1.0 / tau]),
             codes: (1u32 << p.adc_bits) as f64,
             max_code: ((1u32 << p.adc_bits) - 1) as u16,
@@ -160,7 +161,7 @@ impl CurrentSense {
             return self.search_pieces(h, (y0, m0), (y1, m1));
         };
         // What the search finds then: no cut, one piece over [0, h].
-        let seg = CubicRc::new(0.0, self.y, c, self.tau);
+        let seg = CubicRc::with_terms(0.0, self.y, c, &self.tau_terms);
         let out = &mut self.updates[self.newest % UPDATES].pieces;
         out.y_end = seg.at_decayed(h, self.decay.at(h)[0]);
         out.seg[0] = seg;
@@ -250,7 +251,7 @@ impl CurrentSense {
         bounds[1..n_b].sort_by(f64::total_cmp);
         bounds[n_b] = 1.0;
         // Built in place: the pieces are the chain's record of this update.
-        let (y0, tau, decay) = (self.y, self.tau, &self.decay);
+        let (y0, terms, decay) = (self.y, self.tau_terms, &self.decay);
         let out = &mut self.updates[self.newest % UPDATES].pieces;
         out.n = 0;
         let mut y = y0;
@@ -266,7 +267,7 @@ impl CurrentSense {
             } else {
                 coeffs
             };
-            let seg = CubicRc::new(w[0] * h, y, c, tau);
+            let seg = CubicRc::with_terms(w[0] * h, y, c, &terms);
             y = seg.at_decayed(w[1] * h, decay.at(w[1] * h - w[0] * h)[0]);
             out.seg[out.n] = seg;
             out.n += 1;
@@ -671,7 +672,7 @@ mod tests {
 
     /// T·y′ = clip(g·i(t)) − y from y = 0 over [0, h] by RK4 with 20 000 steps.
     fn reference(c: &CurrentSense, i: impl Fn(f64) -> f64, h: f64) -> f64 {
-        let f = |t: f64, y: f64| (c.amplifier_v(i(t)) - y) / c.tau;
+        let f = |t: f64, y: f64| (c.amplifier_v(i(t)) - y) / c.tau_terms.tau();
         let (mut y, n) = (0.0, 20_000);
         let dt = h / n as f64;
         for k in 0..n {
@@ -743,7 +744,7 @@ mod tests {
         let mut c = CurrentSense::new(&p, 0.25, 40e-6);
         c.update(0.0, 20e-6, (i, 0.0), (i, 0.0));
         assert_eq!(c.code_at(Ticks(999)), 0);
-        let v = 4.0 * (1.0 - (-20e-6 / c.tau).exp());
+        let v = 4.0 * (1.0 - (-20e-6 / c.tau_terms.tau()).exp());
         c.update(20e-6, 40e-6, (i, 0.0), (i, 0.0));
         assert_eq!(c.code_at(Ticks(2000)), (v / 10.0 * 4096.0).floor() as u16);
     }
