@@ -63,7 +63,7 @@ fn record(ahead: bool, on: u64, watch_all: bool) -> Vec<(u64, Sensed, Option<u64
         };
         let mut sensing = None;
         loop {
-            match p.advance(until, watch) {
+            match p.advance(until, &watch) {
                 PlantStop::Reached => break,
                 // As the engine does: a change already sampled at the last tick (on a
                 // channel just started watching) does not clock the controller again.

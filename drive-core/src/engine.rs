@@ -214,11 +214,8 @@ impl<P: Plant, C: Controller, S: PwmScheme> Engine<P, C, S> {
             p if p > self.now => p,
             _ => Ticks::NEVER,
         };
-        let watch = Watch {
-            horizon: pwm_edge.min(release).min(planned).max(target),
-            ..self.watch
-        };
-        match self.plant.advance(target, watch) {
+        self.watch.horizon = pwm_edge.min(release).min(planned).max(target);
+        match self.plant.advance(target, &self.watch) {
             PlantStop::Diode => Ok(StopReason::Diode),
             PlantStop::Sensing(at) => {
                 let edge = at.next_edge(self.watch.clock);
@@ -514,8 +511,8 @@ mod tests {
         fn set_gates(&mut self, g: &Gates) {
             self.gate_log.push((self.t, *g));
         }
-        fn advance(&mut self, until: Ticks, watch: Watch) -> PlantStop {
-            self.declared = watch;
+        fn advance(&mut self, until: Ticks, watch: &Watch) -> PlantStop {
+            self.declared = *watch;
             let edge = self.change_at.next_edge(watch.clock);
             if watch.channels.w && self.t < edge && until >= edge {
                 self.t = edge;

@@ -49,7 +49,9 @@ pub trait Plant {
     /// Integrates up to the instant `until`, stopping early at a diode event or at the clock
     /// edge that samples a change of a watched comparator output. A change is reported once;
     /// reporting it again is allowed (it only costs an extra controller tick).
-    fn advance(&mut self, until: Ticks, watch: Watch) -> PlantStop;
+    /// `watch` by reference: the engine keeps it, and a copy per step costs more than the
+    /// plant's reads of it.
+    fn advance(&mut self, until: Ticks, watch: &Watch) -> PlantStop;
 
     /// What a controller sampling at instant `at` (not later than the plant time) sees.
     fn sensed(&self, at: Ticks) -> Sensed;

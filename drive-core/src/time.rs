@@ -13,6 +13,9 @@ pub const TICK_S: f64 = 20e-9;
 /// Ticks per second, to convert instants by multiplication.
 const PER_S: f64 = 1.0 / TICK_S;
 
+/// 2^52: added to a non-negative x below 2^51, it rounds x to a whole number (ties to even).
+const ROUND: f64 = 4_503_599_627_370_496.0;
+
 /// How far (in ticks) an instant may miss a tick and still be that tick: a millionth of a
 /// tick, or a few ulps of the tick count where that is more (beyond ≈ 100 s of drive time
 /// an ulp of the instant exceeds a millionth of a tick).
@@ -26,6 +29,13 @@ fn allowance(k: f64) -> f64 {
 /// far below.
 fn to_count(k: f64) -> u64 {
     (k as i64).max(0) as u64
+}
+
+/// `k` as f64 for a count beyond i64 (see [`Ticks::count_f64`]).
+#[cold]
+#[inline(never)]
+fn beyond_i64(k: u64) -> f64 {
+    k as f64
 }
 
 /// An instant or a duration counted in master ticks (20 ns).
@@ -66,9 +76,21 @@ impl Ticks {
     /// tick (within rounding either way).
     pub fn at_or_after(seconds: f64) -> (Ticks, bool) {
         let k = seconds * PER_S;
-        let near = to_count(k + 0.5); // the nearest tick, for k ≥ 0
-        if (k - Ticks(near).count_f64()).abs() < allowance(k) {
-            return (Ticks(near), true);
+        // The nearest tick n by adding 2^52 (the sum's ulp is 1, n in its low bits), not by
+        // a saturating cast: below 2^48 ticks (65 days), where the allowance is under 0.3,
+        // a tick within it is the one `to_count(k + 0.5)` finds. Anything else (negative
+        // beyond rounding, NaN, later) leaves bits outside 0..2^48 and takes the cast.
+        let r = k + ROUND;
+        let n = r.to_bits().wrapping_sub(ROUND.to_bits());
+        if n < 1 << 48 {
+            if (k - (r - ROUND)).abs() < allowance(k) {
+                return (Ticks(n), true);
+            }
+        } else {
+            let near = to_count(k + 0.5); // the nearest tick, for k ≥ 0
+            if (k - Ticks(near).count_f64()).abs() < allowance(k) {
+                return (Ticks(near), true);
+            }
         }
         let below = to_count(k);
         (
@@ -82,12 +104,14 @@ impl Ticks {
     }
 
     /// The count as f64, through i64 where it fits: baseline x86-64 converts signed
-    /// integers in one instruction, unsigned ones in a branchy sequence.
+    /// integers in one instruction, unsigned ones in a sequence of six. Counts beyond i64
+    /// ([`Ticks::NEVER`]) go out of line: with both conversions inline the compiler sees
+    /// that they agree and emits the unsigned sequence for every count.
+    #[inline(always)]
     fn count_f64(self) -> f64 {
-        match i64::try_from(self.0) {
-            Ok(k) => k as f64,
-            Err(_) => self.0 as f64,
-        }
+        let k = self.0 as i64;
+        let f = k as f64;
+        if k < 0 { beyond_i64(self.0) } else { f }
     }
 
     /// The first instant `>= self` that is a whole multiple of `period` (a clock edge).
@@ -206,6 +230,67 @@ mod tests {
             let x = t + 0.999 * TICK_S;
             assert_eq!(Ticks::at_or_before(x), Ticks(k));
             assert_eq!(Ticks::at_or_after(x), (Ticks(k + 1), false));
+        }
+    }
+
+    /// `Ticks::at_or_after` as it was before its nearest tick came from adding 2^52.
+    fn at_or_after_by_casts(seconds: f64) -> (Ticks, bool) {
+        let k = seconds * PER_S;
+        let near = to_count(k + 0.5);
+        if (k - near as f64).abs() < allowance(k) {
+            return (Ticks(near), true);
+        }
+        let below = to_count(k);
+        (
+            Ticks(if (below as f64) < k { below + 1 } else { below }),
+            false,
+        )
+    }
+
+    #[test]
+    fn the_nearest_tick_by_adding_2_pow_52_is_the_casts_one() {
+        // Ticks and halves of them, each nudged by up to a few allowances and ulps, across
+        // the fast range's end (2^48), negative ones, non-finite ones, from a fixed LCG.
+        let mut z = 0x2545_f491_4f6c_dd1d_u64;
+        let mut unit = || {
+            z = z.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1);
+            (z >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let mut seen = [0usize; 2];
+        for j in 0..200_000 {
+            let k = match j % 5 {
+                0 => (unit() * 1e4).floor(),
+                1 => (unit() * 3e9).floor(),
+                2 => (unit() * 2f64.powi(49)).floor(),
+                3 => (unit() * 2f64.powi(62)).floor(),
+                _ => -(unit() * 4.0).floor(),
+            } + if j % 3 == 0 { 0.5 } else { 0.0 };
+            let nudge = match j % 7 {
+                0 => 0.0,
+                1 | 2 => (unit() - 0.5) * 4.0 * allowance(k.abs()),
+                3 => (unit() - 0.5) * 1e-3,
+                4 => (unit() - 0.5) * 16.0 * f64::EPSILON * k.abs(),
+                _ => unit() - 0.5,
+            };
+            let t = (k + nudge) * TICK_S;
+            let got = Ticks::at_or_after(t);
+            assert_eq!(
+                got,
+                at_or_after_by_casts(t),
+                "{t:e} s ({k} + {nudge:e} ticks)"
+            );
+            seen[usize::from(got.1)] += 1;
+        }
+        assert!(seen[0] > 50_000 && seen[1] > 50_000, "{seen:?}");
+        for t in [
+            f64::NAN,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            -0.0,
+            1e300,
+            -1e-300,
+        ] {
+            assert_eq!(Ticks::at_or_after(t), at_or_after_by_casts(t), "{t}");
         }
     }
 

@@ -1370,7 +1370,8 @@ impl Plant for BldcPlant {
         self.cmp.excite(self.t, dv);
     }
 
-    fn advance(&mut self, until: Ticks, watch: Watch) -> PlantStop {
+    fn advance(&mut self, until: Ticks, watch: &Watch) -> PlantStop {
+        let watch = *watch;
         self.cmp.declare(self.tick.0, watch.channels, watch.reads);
         // Unwatched comparators are walked only as far as they are read: at the instant
         // returned, and from now on for the channels watched now.
@@ -1413,12 +1414,19 @@ impl BldcPlant {
             }
             // Integrate up to the horizon, not just to `until`: instants before it are
             // served from this step (see `Lookahead`) unless the dynamics change first.
-            let mut t1 = watch.horizon.max(until).seconds().min(t0 + self.h_max);
-            // A step of the longest length that lands on a tick takes that tick's own time,
-            // so it ends where a step cut there by the engine would (bit for bit).
-            if let (k, true) = Ticks::at_or_after(t1) {
-                t1 = k.seconds();
-            }
+            // The horizon's instant is a tick's own time already (as `Ticks::at_or_after`
+            // finds it); a step of the longest length that lands on a tick takes that
+            // tick's own time, so it ends where a step cut there by the engine would (bit
+            // for bit).
+            let horizon = watch.horizon.max(until).seconds();
+            let mut t1 = if horizon > t0 + self.h_max {
+                match Ticks::at_or_after(t0 + self.h_max) {
+                    (k, true) => k.seconds(),
+                    _ => t0 + self.h_max,
+                }
+            } else {
+                horizon
+            };
             if let Some(e) = pending {
                 t1 = t1.min(e.seconds());
             }

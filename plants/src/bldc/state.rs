@@ -235,7 +235,7 @@ mod tests {
             clock: Ticks(32),
             horizon: Ticks(4000),
         };
-        while pl.advance(Ticks(1000), watch) != drive_core::PlantStop::Reached {}
+        while pl.advance(Ticks(1000), &watch) != drive_core::PlantStop::Reached {}
         pl
     }
 

@@ -10,9 +10,10 @@
 //! (regeneration, diode freewheeling into the supply) clips to code 0, as on a single-supply
 //! amplifier.
 
-use super::rc::{CubicRc, ExpTable};
+use super::rc::{CubicRc, ExpTable, TauTerms};
 use crate::params::CurrentSenseParams;
 use drive_core::{TICK_S, Ticks};
+use std::cell::Cell;
 
 mod state;
 
@@ -21,7 +22,8 @@ mod state;
 pub struct CurrentSense {
     volts_per_amp: f64,
     max_v: f64,
-    tau: f64,
+    /// The filter's time constant T and its products, for each piece.
+    tau_terms: TauTerms,
     /// e^{−t/T} by table: the transient's decay at each sample and piece's end.
     decay: ExpTable<1>,
     codes: f64,
@@ -45,8 +47,12 @@ pub struct CurrentSense {
     /// The latest updates' pieces in a ring, the newest at `newest` mod its length (to cut
     /// it short, and to code its samples): a reused one's samples still held are coded
     /// first.
-    updates: Box<[Update]>,
+    updates: Box<[Update; UPDATES]>,
     newest: usize,
+    /// The last sample coded for a read and its code, (`u64::MAX`, 0) for none: the
+    /// controller often reads one sample at several ticks within a conversion (derived;
+    /// forgotten with the sample by a cut and by a restore).
+    read: Cell<(u64, u16)>,
 }
 
 /// One update's filter pieces, its start \[s\] and the numbers of the samples it took,
@@ -58,6 +64,9 @@ struct Update {
     from: u64,
     to: u64,
 }
+
+/// No sample coded for a read (see `CurrentSense::read`).
+const NO_READ: (u64, u16) = (u64::MAX, 0);
 
 /// Updates kept: a power of two, and more than take place while a sample is held (a
 /// few conversions), so that a sample read is seldom coded before it is.
@@ -97,7 +106,7 @@ impl CurrentSense {
         CurrentSense {
             volts_per_amp: shunt_ohm * p.amplifier_gain,
             max_v: p.amplifier_max_v,
-            tau,
+            tau_terms: TauTerms::new(tau),
             decay: ExpTable::new([-1.0 / tau]),
             codes: (1u32 << p.adc_bits) as f64,
             max_code: ((1u32 << p.adc_bits) - 1) as u16,
@@ -110,8 +119,9 @@ impl CurrentSense {
             keep,
             coded_to: 1,
             next_n: 1,
-            updates: vec![
-                Update {
+            // An array, not a slice: a slot index mod UPDATES needs no bounds check.
+            updates: Box::new(
+                [Update {
                     pieces: Pieces {
                         seg: [CubicRc::new(0.0, 0.0, [0.0; 4], 1.0); 7],
                         n: 1,
@@ -120,11 +130,10 @@ impl CurrentSense {
                     t0: 0.0,
                     from: 1,
                     to: 1,
-                };
-                UPDATES
-            ]
-            .into_boxed_slice(),
+                }; UPDATES],
+            ),
             newest: 0,
+            read: Cell::new(NO_READ),
         }
     }
 
@@ -152,7 +161,7 @@ impl CurrentSense {
             return self.search_pieces(h, (y0, m0), (y1, m1));
         };
         // What the search finds then: no cut, one piece over [0, h].
-        let seg = CubicRc::new(0.0, self.y, c, self.tau);
+        let seg = CubicRc::with_terms(0.0, self.y, c, &self.tau_terms);
         let out = &mut self.updates[self.newest % UPDATES].pieces;
         out.y_end = seg.at_decayed(h, self.decay.at(h)[0]);
         out.seg[0] = seg;
@@ -242,7 +251,7 @@ impl CurrentSense {
         bounds[1..n_b].sort_by(f64::total_cmp);
         bounds[n_b] = 1.0;
         // Built in place: the pieces are the chain's record of this update.
-        let (y0, tau, decay) = (self.y, self.tau, &self.decay);
+        let (y0, terms, decay) = (self.y, self.tau_terms, &self.decay);
         let out = &mut self.updates[self.newest % UPDATES].pieces;
         out.n = 0;
         let mut y = y0;
@@ -258,7 +267,7 @@ impl CurrentSense {
             } else {
                 coeffs
             };
-            let seg = CubicRc::new(w[0] * h, y, c, tau);
+            let seg = CubicRc::with_terms(w[0] * h, y, c, &terms);
             y = seg.at_decayed(w[1] * h, decay.at(w[1] * h - w[0] * h)[0]);
             out.seg[out.n] = seg;
             out.n += 1;
@@ -369,10 +378,16 @@ impl CurrentSense {
         if n < self.coded_to {
             return self.codes_ring[n as usize & (self.codes_ring.len() - 1)];
         }
-        (0..UPDATES)
+        let (read, code) = self.read.get();
+        if read == n {
+            return code;
+        }
+        let code = (0..UPDATES)
             .map(|j| &self.updates[self.newest.wrapping_sub(j) % UPDATES])
             .find(|u| u.from <= n && n < u.to)
-            .map_or(0, |u| self.code_in(u, n))
+            .map_or(0, |u| self.code_in(u, n));
+        self.read.set((n, code));
+        code
     }
 
     /// Cuts the last update short at `t` \[s\] (inside it): samples after `t` are forgotten
@@ -394,6 +409,9 @@ impl CurrentSense {
             .saturating_sub(usize::try_from(forgotten).unwrap_or(usize::MAX));
         self.coded_to = self.coded_to.min(next_n);
         self.next_n = next_n;
+        if self.read.get().0 >= next_n {
+            self.read.set(NO_READ);
+        }
     }
 
     /// The latest conversion readable at `at` (which may lie a few conversions back), 0
@@ -608,6 +626,52 @@ mod tests {
     }
 
     #[test]
+    fn a_sample_read_then_cut_or_restored_away_reads_as_taken_again() {
+        // A chain that read its newest samples (remembering the last) against one that did
+        // not: after a cut before those samples, and after a restore of an earlier state,
+        // both take them again from a different current and read the new codes.
+        use drive_core::state::Persist;
+        let p = CurrentSenseParams::default();
+        let fresh = || CurrentSense::new(&p, 0.25, 80e-6);
+        let (mut c, mut d) = (fresh(), fresh());
+        let mut t = 0.0;
+        let mut saved = None;
+        let newest = |x: &CurrentSense| Ticks(x.next_n * x.conv);
+        for k in 0..30 {
+            for x in [&mut c, &mut d] {
+                x.update(t, t + 10e-6, (0.2, 0.0), (0.2, 0.0));
+            }
+            t += 10e-6;
+            assert_eq!(c.code_at(newest(&c)), d.code_at(newest(&d)));
+            if k == 20 {
+                saved = Some(c.to_bytes().unwrap());
+            }
+        }
+        let read = newest(&c);
+        assert_eq!(c.code_at(read), 1638, "0.2 A settled: 4 V of 10 V, 12 bits");
+        // Cut 25 µs back (the sample just read is forgotten), then 0.4 A: code 3276.
+        for x in [&mut c, &mut d] {
+            x.truncate_at(t - 25e-6);
+            x.update(t - 25e-6, t + 60e-6, (0.4, 0.0), (0.4, 0.0));
+        }
+        assert_eq!(c.code_at(read), d.code_at(read));
+        assert_ne!(c.code_at(read), 1638, "the sample was taken again");
+        // Back to an earlier state, then 0.1 A up to the instant read.
+        let later = Ticks(read.0 + 2 * c.conv);
+        assert_eq!(c.code_at(later), d.code_at(later));
+        let saved = saved.expect("saved at update 20");
+        let t_saved = 210e-6;
+        for x in [&mut c, &mut d] {
+            x.restore_from(&saved).unwrap();
+            x.update(t_saved, t + 60e-6, (0.1, 0.0), (0.1, 0.0));
+        }
+        for at in [later, read] {
+            assert_eq!(c.code_at(at), d.code_at(at), "{at:?}");
+            assert!(c.code_at(at) < 1638, "{at:?}: taken again from 0.1 A");
+        }
+    }
+
+    #[test]
     fn a_restored_update_cut_short_reads_as_the_uninterrupted_one() {
         // A lookahead past the next gate change, saved, then cut short at the change and
         // followed by another current: the samples after the cut are taken again, from the
@@ -646,7 +710,7 @@ mod tests {
 
     /// T·y′ = clip(g·i(t)) − y from y = 0 over [0, h] by RK4 with 20 000 steps.
     fn reference(c: &CurrentSense, i: impl Fn(f64) -> f64, h: f64) -> f64 {
-        let f = |t: f64, y: f64| (c.amplifier_v(i(t)) - y) / c.tau;
+        let f = |t: f64, y: f64| (c.amplifier_v(i(t)) - y) / c.tau_terms.tau();
         let (mut y, n) = (0.0, 20_000);
         let dt = h / n as f64;
         for k in 0..n {
@@ -718,7 +782,7 @@ mod tests {
         let mut c = CurrentSense::new(&p, 0.25, 40e-6);
         c.update(0.0, 20e-6, (i, 0.0), (i, 0.0));
         assert_eq!(c.code_at(Ticks(999)), 0);
-        let v = 4.0 * (1.0 - (-20e-6 / c.tau).exp());
+        let v = 4.0 * (1.0 - (-20e-6 / c.tau_terms.tau()).exp());
         c.update(20e-6, 40e-6, (i, 0.0), (i, 0.0));
         assert_eq!(c.code_at(Ticks(2000)), (v / 10.0 * 4096.0).floor() as u16);
     }

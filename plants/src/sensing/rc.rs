@@ -23,18 +23,23 @@ impl CubicRc {
     /// The filter of time constant `tau` at `y_from` at τ = `from`, driven by the cubic with
     /// coefficients `c` (in τ, not τ − τa).
     pub fn new(from: f64, y_from: f64, c: [f64; 4], tau: f64) -> Self {
-        let (t, t2, t3) = (tau, tau * tau, tau * tau * tau);
+        Self::with_terms(from, y_from, c, &TauTerms::new(tau))
+    }
+
+    /// [`CubicRc::new`] with the time constant's terms computed once for many pieces.
+    #[inline(always)]
+    pub fn with_terms(from: f64, y_from: f64, c: [f64; 4], k: &TauTerms) -> Self {
         let p = [
-            c[0] - t * c[1] + 2.0 * t2 * c[2] - 6.0 * t3 * c[3],
-            c[1] - 2.0 * t * c[2] + 6.0 * t2 * c[3],
-            c[2] - 3.0 * t * c[3],
+            c[0] - k.t * c[1] + k.two_t2 * c[2] - k.six_t3 * c[3],
+            c[1] - k.two_t * c[2] + k.six_t2 * c[3],
+            c[2] - k.three_t * c[3],
             c[3],
         ];
         let mut s = CubicRc {
             p,
             from,
             transient: 0.0,
-            tau,
+            tau: k.t,
         };
         s.transient = y_from - s.poly(from);
         s
@@ -53,6 +58,38 @@ impl CubicRc {
     /// y(τ) with the transient's decay e^{−(τ − τa)/T} given (from a table).
     pub fn at_decayed(&self, t: f64, decay: f64) -> f64 {
         self.poly(t) + self.transient * decay
+    }
+}
+
+/// The products of a time constant T that p's coefficients take (see [`CubicRc::new`]):
+/// T, 2·T, 3·T, 2·T², 6·T², 6·T³, each rounded as there.
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub struct TauTerms {
+    t: f64,
+    two_t: f64,
+    three_t: f64,
+    two_t2: f64,
+    six_t2: f64,
+    six_t3: f64,
+}
+
+impl TauTerms {
+    /// The terms of `tau` \[s\].
+    pub fn new(tau: f64) -> Self {
+        let (t, t2, t3) = (tau, tau * tau, tau * tau * tau);
+        TauTerms {
+            t,
+            two_t: 2.0 * t,
+            three_t: 3.0 * t,
+            two_t2: 2.0 * t2,
+            six_t2: 6.0 * t2,
+            six_t3: 6.0 * t3,
+        }
+    }
+
+    /// T \[s\].
+    pub fn tau(&self) -> f64 {
+        self.t
     }
 }
 
@@ -149,6 +186,32 @@ pub fn hermite(inv_h: f64, (y0, d0): (f64, f64), (y1, d1): (f64, f64)) -> [f64; 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn terms_computed_once_give_the_pieces_bit_for_bit() {
+        // p's coefficients as written out with T's powers at each piece, from a fixed LCG.
+        let mut z = 0x9e37_79b9_7f4a_7c15_u64;
+        let mut unit = || {
+            z = z.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1);
+            (z >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
+        };
+        for _ in 0..10_000 {
+            let tau = 1e-7 + 1e-5 * unit().abs();
+            let c = [unit() * 10.0, unit() * 1e6, unit() * 1e11, unit() * 1e16];
+            let (from, y) = (4e-5 * unit().abs(), unit() * 10.0);
+            let (t, t2, t3) = (tau, tau * tau, tau * tau * tau);
+            let p = [
+                c[0] - t * c[1] + 2.0 * t2 * c[2] - 6.0 * t3 * c[3],
+                c[1] - 2.0 * t * c[2] + 6.0 * t2 * c[3],
+                c[2] - 3.0 * t * c[3],
+                c[3],
+            ];
+            let s = CubicRc::with_terms(from, y, c, &TauTerms::new(tau));
+            assert_eq!(s.p.map(f64::to_bits), p.map(f64::to_bits), "{tau} {c:?}");
+            assert_eq!(s.transient.to_bits(), (y - horner(&p, from)).to_bits());
+            assert_eq!(s.tau.to_bits(), tau.to_bits());
+        }
+    }
 
     #[test]
     fn matches_the_ode_and_its_step_response() {

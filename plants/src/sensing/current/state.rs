@@ -45,6 +45,8 @@ impl Persist for CurrentSense {
     }
 
     fn restore(&mut self, r: &mut Reader) -> Result<(), String> {
+        // The sample last read is not the restored state's (even when this fails midway).
+        self.read.set(super::NO_READ);
         r.field("y", &mut self.y)?;
         let mut results = VecDeque::<(u64, u16)>::new();
         r.field("results", &mut results)?;
