@@ -94,6 +94,19 @@ const FOLLOWS_NEUTRAL: [[bool; 3]; STATES] = {
     t
 };
 
+/// The open legs of each conduction state as a mask (bit 0 for u), by [`state_index`].
+const OPEN_LEGS: [u8; STATES] = {
+    let mut t = [0u8; STATES];
+    let mut k = 0;
+    while k < STATES {
+        let d = [k / 25 % 5, k / 5 % 5, k % 5];
+        let open = Conduction::Open as usize;
+        t[k] = (d[0] == open) as u8 | ((d[1] == open) as u8) << 1 | ((d[2] == open) as u8) << 2;
+        k += 1;
+    }
+    t
+};
+
 /// The legs' conduction states at index `k` (see [`state_index`]).
 pub fn state_at(k: usize) -> Abc<Conduction> {
     const ALL: [Conduction; 5] = [
@@ -590,12 +603,22 @@ impl Circuit {
         // no judging. As a mask of the legs (bit 0 for u), walked in phase order: most
         // re-resolves have one such leg or none.
         let kept = keep_open.map_or(0, |p| 1u8 << p.index());
-        let judged = |m: &Abc<Conduction>| {
-            let open = |p: Phase| u8::from(!m.get(p).conducts()) << p.index();
-            (open(Phase::U) | open(Phase::V) | open(Phase::W)) & !kept
-        };
-        let mut legs = judged(&modes);
+        let judged = |k: usize| OPEN_LEGS[k] & !kept;
+        let mut legs = judged(k);
         if legs == 0 {
+            return (modes, k);
+        }
+        // Most judged legs sit inside the clamps, none located on one: the first round
+        // would find nothing to try (a terminal inside, or NaN, violates by 0), so it is
+        // not walked. Any other leg goes on to the rounds as before.
+        let (lo, hi) = self.clamps(sol.i_shunt);
+        let out = |v: f64, p: Phase| u8::from(v > hi || v < lo) << p.index();
+        let v = &sol.v_term;
+        let suspect = out(v.u, Phase::U)
+            | out(v.v, Phase::V)
+            | out(v.w, Phase::W)
+            | at_clamp.map_or(0, |p| 1u8 << p.index());
+        if legs & suspect == 0 {
             return (modes, k);
         }
         for round in 0..3 {
@@ -647,7 +670,7 @@ impl Circuit {
             modes = trial;
             k = k_trial;
             *sol = s;
-            legs = judged(&modes);
+            legs = judged(k);
         }
         (modes, k)
     }
@@ -871,6 +894,18 @@ mod tests {
     fn state_indices_round_trip() {
         for k in 0..STATES {
             assert_eq!(state_index(&state_at(k)), k);
+        }
+    }
+
+    #[test]
+    fn the_open_legs_table_agrees_with_the_states() {
+        for k in 0..STATES {
+            let m = state_at(k);
+            let open = Phase::ALL
+                .iter()
+                .map(|&p| u8::from(!m.get(p).conducts()) << p.index())
+                .sum::<u8>();
+            assert_eq!(OPEN_LEGS[k], open, "state {k}");
         }
     }
 
