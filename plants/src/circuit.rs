@@ -107,6 +107,30 @@ const OPEN_LEGS: [u8; STATES] = {
     t
 };
 
+/// The legs tied to the low rail (through the shunt) in each conduction state, by
+/// [`state_index`].
+const LOW_LEGS: [[bool; 3]; STATES] = {
+    let mut t = [[false; 3]; STATES];
+    let mut k = 0;
+    while k < STATES {
+        let d = [k / 25 % 5, k / 5 % 5, k % 5];
+        let mut p = 0;
+        while p < 3 {
+            t[k][p] =
+                d[p] == Conduction::SwitchLow as usize || d[p] == Conduction::DiodeLow as usize;
+            p += 1;
+        }
+        k += 1;
+    }
+    t
+};
+
+/// [`Conduction::is_low`] of each leg in the conduction state at index `k` (see
+/// [`state_index`]), for a caller that keeps the index.
+pub(crate) fn low_legs_at(k: usize) -> [bool; 3] {
+    LOW_LEGS[k]
+}
+
 /// The legs' conduction states at index `k` (see [`state_index`]).
 pub fn state_at(k: usize) -> Abc<Conduction> {
     const ALL: [Conduction; 5] = [
@@ -497,6 +521,12 @@ impl Circuit {
     /// fewer than two legs conducting the diode ones too (nothing carries their current).
     pub fn follows_neutral(modes: &Abc<Conduction>) -> [bool; 3] {
         FOLLOWS_NEUTRAL[state_index(modes)]
+    }
+
+    /// [`Circuit::follows_neutral`] of the conduction state at index `k` (see
+    /// [`state_index`]), for a caller that keeps the index: not decoded again at every step.
+    pub(crate) fn follows_neutral_at(k: usize) -> [bool; 3] {
+        FOLLOWS_NEUTRAL[k]
     }
 
     /// Neutral voltage with no conducting path: −Σe/3, clamped so that every terminal stays
@@ -898,7 +928,7 @@ mod tests {
     }
 
     #[test]
-    fn the_open_legs_table_agrees_with_the_states() {
+    fn the_tables_by_state_index_agree_with_the_states() {
         for k in 0..STATES {
             let m = state_at(k);
             let open = Phase::ALL
@@ -906,6 +936,16 @@ mod tests {
                 .map(|&p| u8::from(!m.get(p).conducts()) << p.index())
                 .sum::<u8>();
             assert_eq!(OPEN_LEGS[k], open, "state {k}");
+            assert_eq!(
+                low_legs_at(k),
+                m.map(Conduction::is_low).to_array(),
+                "state {k}"
+            );
+            assert_eq!(
+                Circuit::follows_neutral_at(k),
+                Circuit::follows_neutral(&m),
+                "state {k}"
+            );
         }
     }
 
