@@ -406,9 +406,10 @@ impl BldcPlant {
     /// d(i_shunt)/dt for the currents' rates `di`: the shunt carries the low-side currents
     /// back.
     fn shunt_slope(&self, di: [f64; 3]) -> f64 {
+        let low = circuit::low_legs_at(self.lin);
         Phase::ALL
             .into_iter()
-            .filter(|p| self.modes.get(*p).is_low())
+            .filter(|p| low[p.index()])
             .map(|p| -di[p.index()])
             .sum()
     }
@@ -439,7 +440,7 @@ impl BldcPlant {
         h: f64,
         base: (f64, f64, f64),
     ) -> (Knot, Knot) {
-        let follows = Circuit::follows_neutral(&self.modes);
+        let follows = Circuit::follows_neutral_at(self.lin);
         // Half a tick of slack: a step of exactly 40 µs is one whatever its rounding.
         let bend = h > CHORD_S + 0.5 * drive_core::TICK_S && follows.contains(&true);
         let knot = |x: &State, f: &State, s: &Solution| {

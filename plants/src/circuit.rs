@@ -94,6 +94,43 @@ const FOLLOWS_NEUTRAL: [[bool; 3]; STATES] = {
     t
 };
 
+/// The open legs of each conduction state as a mask (bit 0 for u), by [`state_index`].
+const OPEN_LEGS: [u8; STATES] = {
+    let mut t = [0u8; STATES];
+    let mut k = 0;
+    while k < STATES {
+        let d = [k / 25 % 5, k / 5 % 5, k % 5];
+        let open = Conduction::Open as usize;
+        t[k] = (d[0] == open) as u8 | ((d[1] == open) as u8) << 1 | ((d[2] == open) as u8) << 2;
+        k += 1;
+    }
+    t
+};
+
+/// The legs tied to the low rail (through the shunt) in each conduction state, by
+/// [`state_index`].
+const LOW_LEGS: [[bool; 3]; STATES] = {
+    let mut t = [[false; 3]; STATES];
+    let mut k = 0;
+    while k < STATES {
+        let d = [k / 25 % 5, k / 5 % 5, k % 5];
+        let mut p = 0;
+        while p < 3 {
+            t[k][p] =
+                d[p] == Conduction::SwitchLow as usize || d[p] == Conduction::DiodeLow as usize;
+            p += 1;
+        }
+        k += 1;
+    }
+    t
+};
+
+/// [`Conduction::is_low`] of each leg in the conduction state at index `k` (see
+/// [`state_index`]), for a caller that keeps the index.
+pub(crate) fn low_legs_at(k: usize) -> [bool; 3] {
+    LOW_LEGS[k]
+}
+
 /// The legs' conduction states at index `k` (see [`state_index`]).
 pub fn state_at(k: usize) -> Abc<Conduction> {
     const ALL: [Conduction; 5] = [
@@ -327,7 +364,14 @@ impl Circuit {
         e: &Abc<f64>,
         out: &mut Solution,
     ) {
-        *out = self.solve_planned_with::<true>(plan, modes, i, e);
+        // Written in each arm: one solution assembled from the arms went through the stack.
+        match plan.open {
+            _ if !plan.shared => *out = self.solve(modes, i, e),
+            0 => *out = self.solve_shared::<0, true>(plan, i, e),
+            1 => *out = self.solve_shared::<1, true>(plan, i, e),
+            2 => *out = self.solve_shared::<2, true>(plan, i, e),
+            _ => *out = self.solve_shared::<3, true>(plan, i, e),
+        }
     }
 
     /// [`Circuit::solve_planned`] but, with two or more legs conducting, the losses
@@ -479,6 +523,12 @@ impl Circuit {
         FOLLOWS_NEUTRAL[state_index(modes)]
     }
 
+    /// [`Circuit::follows_neutral`] of the conduction state at index `k` (see
+    /// [`state_index`]), for a caller that keeps the index: not decoded again at every step.
+    pub(crate) fn follows_neutral_at(k: usize) -> [bool; 3] {
+        FOLLOWS_NEUTRAL[k]
+    }
+
     /// Neutral voltage with no conducting path: −Σe/3, clamped so that every terminal stays
     /// within the diode clamps.
     fn floating_neutral(&self, e: &Abc<f64>, i_shunt: f64) -> f64 {
@@ -583,12 +633,22 @@ impl Circuit {
         // no judging. As a mask of the legs (bit 0 for u), walked in phase order: most
         // re-resolves have one such leg or none.
         let kept = keep_open.map_or(0, |p| 1u8 << p.index());
-        let judged = |m: &Abc<Conduction>| {
-            let open = |p: Phase| u8::from(!m.get(p).conducts()) << p.index();
-            (open(Phase::U) | open(Phase::V) | open(Phase::W)) & !kept
-        };
-        let mut legs = judged(&modes);
+        let judged = |k: usize| OPEN_LEGS[k] & !kept;
+        let mut legs = judged(k);
         if legs == 0 {
+            return (modes, k);
+        }
+        // Most judged legs sit inside the clamps, none located on one: the first round
+        // would find nothing to try (a terminal inside, or NaN, violates by 0), so it is
+        // not walked. Any other leg goes on to the rounds as before.
+        let (lo, hi) = self.clamps(sol.i_shunt);
+        let out = |v: f64, p: Phase| u8::from(v > hi || v < lo) << p.index();
+        let v = &sol.v_term;
+        let suspect = out(v.u, Phase::U)
+            | out(v.v, Phase::V)
+            | out(v.w, Phase::W)
+            | at_clamp.map_or(0, |p| 1u8 << p.index());
+        if legs & suspect == 0 {
             return (modes, k);
         }
         for round in 0..3 {
@@ -640,7 +700,7 @@ impl Circuit {
             modes = trial;
             k = k_trial;
             *sol = s;
-            legs = judged(&modes);
+            legs = judged(k);
         }
         (modes, k)
     }
@@ -891,6 +951,13 @@ mod tests {
                     bits(&full),
                     "state {k}: {modes:?} i {i:?} e {e:?}"
                 );
+                let mut into = Solution::default();
+                c.solve_planned_into(&plan, &modes, &i, &e, &mut into);
+                assert_eq!(
+                    bits(&into),
+                    bits(&full),
+                    "state {k}: {modes:?} i {i:?} e {e:?}"
+                );
                 let mut later = c.solve_planned_losses_later(&plan, &modes, &i, &e);
                 if !later.powers.has_losses() {
                     later.powers = c.with_losses(&plan, &i, &later);
@@ -950,6 +1017,28 @@ mod tests {
     fn state_indices_round_trip() {
         for k in 0..STATES {
             assert_eq!(state_index(&state_at(k)), k);
+        }
+    }
+
+    #[test]
+    fn the_tables_by_state_index_agree_with_the_states() {
+        for (k, &open_legs) in OPEN_LEGS.iter().enumerate() {
+            let m = state_at(k);
+            let open = Phase::ALL
+                .iter()
+                .map(|&p| u8::from(!m.get(p).conducts()) << p.index())
+                .sum::<u8>();
+            assert_eq!(open_legs, open, "state {k}");
+            assert_eq!(
+                low_legs_at(k),
+                m.map(Conduction::is_low).to_array(),
+                "state {k}"
+            );
+            assert_eq!(
+                Circuit::follows_neutral_at(k),
+                Circuit::follows_neutral(&m),
+                "state {k}"
+            );
         }
     }
 
