@@ -16,6 +16,7 @@ pub mod profile;
 pub mod scenario;
 pub mod scenario_file;
 pub mod sweep;
+pub mod tune;
 pub mod verdict;
 
 pub use config::{ConfigError, DriveConfig};

@@ -8,6 +8,7 @@ use bldc_drive::scenario::{self, TraceRow, TraceSpec};
 use bldc_drive::scenario_file::RunRecord;
 use bldc_drive::strategies::{PluginLibrary, StrategyName};
 use bldc_drive::sweep;
+use bldc_drive::tune;
 use clap::{Args, Parser, Subcommand};
 use std::io::{BufWriter, IsTerminal, Write};
 use std::path::{Path, PathBuf};
@@ -95,6 +96,27 @@ enum Cmd {
         /// Worker threads (default: every core).
         #[arg(long, value_parser = clap::value_parser!(u16).range(1..=256))]
         threads: Option<u16>,
+    },
+    /// Picks the speed and current PI gains for the config's motor by the loop-design
+    /// criterion (docs/chip.md, "Loop design": a phase margin of 50° and a gain margin of
+    /// 10 dB at every speed of the range, the current loop's pole at 0.6), prints the
+    /// margins per speed and the `[control]` lines; --write saves the whole config with them.
+    Tune {
+        /// TOML config (its motor, supply and control options; its gains are replaced).
+        #[arg(long)]
+        config: Option<PathBuf>,
+        /// Lowest speed the gains must hold, in rpm.
+        #[arg(long, default_value_t = 250.0)]
+        from_rpm: f64,
+        /// Highest speed, in rpm (default: 80 % of the motor's no-load speed).
+        #[arg(long)]
+        to_rpm: Option<f64>,
+        /// Writes the config with the tuned gains (TOML) to this file.
+        #[arg(long)]
+        write: Option<PathBuf>,
+        /// Writes the gains and margins as JSON.
+        #[arg(long)]
+        json: Option<PathBuf>,
     },
     /// Lists the strategies.
     List,
@@ -263,6 +285,54 @@ fn run(cli: Cli) -> Result<i32, String> {
                     p.path().display(),
                     p.description()
                 );
+            }
+            Ok(0)
+        }
+        Some(Cmd::Tune {
+            config,
+            from_rpm,
+            to_rpm,
+            write: out,
+            json,
+        }) => {
+            let cfg = load_config(config.as_deref())?;
+            let outputs: Vec<&Path> = out
+                .iter()
+                .chain(json.iter())
+                .map(PathBuf::as_path)
+                .collect();
+            check_outputs(&outputs)?;
+            let to_rpm = match to_rpm {
+                Some(r) => r,
+                None => {
+                    0.8 * tune::LoopModel::new(&cfg)
+                        .map_err(|e| e.to_string())?
+                        .no_load_rpm()
+                }
+            };
+            let t = tune::tune(&cfg, from_rpm, to_rpm).map_err(|e| e.to_string())?;
+            println!(
+                "    rpm   duty  k'  current pole  crossover rad/s  phase margin °  gain margin dB"
+            );
+            for m in &t.margins {
+                let opt = |x: Option<f64>, p: usize| x.map_or("-".into(), |v| format!("{v:.p$}"));
+                println!(
+                    "{:7.0} {:6.3} {:3} {:13.3} {:16} {:15} {:15}",
+                    m.rpm,
+                    m.duty,
+                    m.meter_periods,
+                    m.current_pole,
+                    opt(m.crossover_rad_s, 1),
+                    opt(m.phase_margin_deg, 1),
+                    opt(m.gain_margin_db, 1)
+                );
+            }
+            print!("{}", t.to_toml());
+            if let Some(p) = &out {
+                write(p, &t.apply(&cfg).to_toml())?;
+            }
+            if let Some(p) = &json {
+                write(p, &to_json(&t)?)?;
             }
             Ok(0)
         }

@@ -139,12 +139,50 @@ pub struct Chip {
     zd: bool,
     zdf: bool,
     next_pi: Ticks,
+    /// Spacing of the current reads averaged per PI update (`control.current_reads`): a
+    /// carrier period over their number, on the 0.64 µs clock (a parameter).
+    read_spacing: Ticks,
+    /// Read slots of the coming PI update passed so far, the codes read in them and how
+    /// many were read (a slot passed while the chip was not running is not read).
+    read_slot: u32,
+    read_sum: u32,
+    read_count: u32,
     crossings: u64,
     pattern: Pattern,
 }
 
 fn counts(seconds: f64, clock: Ticks) -> u64 {
     (seconds / clock.seconds()).round().max(1.0) as u64
+}
+
+/// The spacing of `reads` current reads before a PI update, for a carrier of top `top`
+/// (one count per master tick, so a period P of 2·top ticks): (m + 1/n)·P on the chip's
+/// 0.64 µs clock, with m the most whole periods that keep the n reads inside one PI
+/// period. Consecutive reads then fall 1/n of a carrier period apart in its phase, so the n
+/// of an update take every carrier phase once (no PWM alias), and are spread over the
+/// update's interval, so the commutation ripple is sampled at n instants of it rather
+/// than one (its alias is shrunk, not removed).
+fn read_spacing(top: u32, reads: u32) -> Ticks {
+    let period = 2 * u64::from(top);
+    let clock = clocks::COMMUTATION.0;
+    let n = u64::from(reads.max(1));
+    // n·(m + 1/n)·P ≤ PI period  ⇔  m ≤ (PI period − P)/(n·P).
+    let m = clocks::PI_UPDATE.0.saturating_sub(period) / (n * period);
+    let ticks = m * period + period / n;
+    Ticks(((ticks + clock / 2) / clock).max(1) * clock)
+}
+
+/// The duty d̂ a speed of `rpm` needs with a mean shunt current `i_shunt_a`, for the gain
+/// schedule: d = a + i_ph/I_lr with a = n/ω0 (the back-EMF's share of the supply) and the
+/// resistive drop i_ph·R_ll/V_DD = i_ph/I_lr, where the phase current i_ph = i_shunt/d
+/// (the shunt carries it in the on-time alone); so d² − a·d − i_shunt/I_lr = 0. ω0 and
+/// I_lr are the supervisor's datasheet figures. Clamped to [`schedule_min_duty`, 1].
+///
+/// [`schedule_min_duty`]: ControlParams::schedule_min_duty
+pub fn scheduled_duty(c: &ControlParams, rpm: f64, i_shunt_a: f64) -> f64 {
+    let a = rpm.max(0.0) / c.supervisor_no_load_rpm;
+    let drop = 4.0 * i_shunt_a.max(0.0) / c.supervisor_locked_rotor_a;
+    (0.5 * (a + (a * a + drop).sqrt())).clamp(c.schedule_min_duty, 1.0)
 }
 
 impl Chip {
@@ -212,10 +250,13 @@ impl Chip {
             pending_table: None,
             guard: Guard::from_params(&strategy),
             shifter: PhaseShifter::new(table, BLANKING),
-            speed: SpeedMeter::new(
+            speed: SpeedMeter::windowed(
                 control.speed_periods,
                 control.speed_counter_bits,
                 pole_pairs,
+                (control.speed_window_s > 0.0)
+                    .then(|| Ticks::from_seconds(control.speed_window_s))
+                    .flatten(),
             ),
             speed_pi,
             current_pi,
@@ -239,6 +280,10 @@ impl Chip {
             zd: false,
             zdf: false,
             next_pi: Ticks::NEVER,
+            read_spacing: read_spacing(top, control.current_reads),
+            read_slot: 0,
+            read_sum: 0,
+            read_count: 0,
             crossings: 0,
             pattern: ALL_FLOAT,
             step_miss_clocks: counts(control.step_miss_s, clocks::STEP_MISS),
@@ -338,6 +383,40 @@ impl Chip {
         self.cv = 0;
         self.linear = false;
         self.next_pi = Ticks::NEVER;
+        self.clear_reads();
+    }
+
+    fn clear_reads(&mut self) {
+        self.read_slot = 0;
+        self.read_sum = 0;
+        self.read_count = 0;
+    }
+
+    /// When the next current read before the coming PI update is due (the update itself
+    /// takes the last read).
+    fn next_read(&self) -> Option<Ticks> {
+        let left = self.control.current_reads.checked_sub(self.read_slot + 1)?;
+        (left > 0 && self.next_pi != Ticks::NEVER).then(|| {
+            Ticks(
+                self.next_pi
+                    .0
+                    .saturating_sub(u64::from(left) * self.read_spacing.0),
+            )
+        })
+    }
+
+    /// Takes the current reads due by `now` before the coming PI update; a slot that
+    /// passed before `now` reached it (the chip was off or starting) is skipped.
+    fn take_reads(&mut self, now: Ticks, code: u16) {
+        while let Some(at) = self.next_read()
+            && at <= now
+        {
+            if now.0 < at.0 + self.read_spacing.0 {
+                self.read_sum += u32::from(code);
+                self.read_count += 1;
+            }
+            self.read_slot += 1;
+        }
     }
 
     fn begin_align(&mut self, now: Ticks) {
@@ -386,6 +465,7 @@ impl Chip {
         self.fg_since = now;
         self.current_pi.set_integrator(f64::from(self.cv));
         self.next_pi = Ticks(now.0 + 1).next_edge(clocks::PI_UPDATE);
+        self.clear_reads();
     }
 
     fn restart(&mut self, now: Ticks) {
@@ -473,6 +553,7 @@ impl Chip {
             self.table = self.run_table;
             self.pending_table = Some(self.table);
         }
+        self.take_reads(now, sensed.current_code);
         if now >= self.next_pi {
             let implausible = self.pi_update(sensed.current_code);
             while self.next_pi <= now {
@@ -504,14 +585,20 @@ impl Chip {
     /// Returns whether the supervisor found this update's current sample implausible
     /// enough to restart; it judges the sample against the duty that produced it.
     fn pi_update(&mut self, current_code: u16) -> bool {
-        let i = f64::from(current_code) * self.amps_per_code;
+        // The mean of this read and those taken before it for this update.
+        let sum = self.read_sum + u32::from(current_code);
+        let i = f64::from(sum) / f64::from(self.read_count + 1) * self.amps_per_code;
+        self.clear_reads();
         // The believed speed from the last 60° interval: it exists two crossings after the
         // hand-over, long before the FG meter's first reading.
         let (t60, measured) = self.shifter.t60();
+        let shifter_rpm = measured.then(|| {
+            let sector_s = t60.max(1) as f64 * clocks::COMMUTATION.seconds();
+            60.0 / (6.0 * sector_s * f64::from(self.pole_pairs))
+        });
         let new_reading = self.speed.measurements() != self.measurements_seen;
         self.measurements_seen = self.speed.measurements();
-        let tripped = measured && {
-            let sector_s = t60.max(1) as f64 * clocks::COMMUTATION.seconds();
+        let tripped = shifter_rpm.is_some_and(|shifter_rpm| {
             // A linear region since the last update applied full voltage, and the sampled
             // current may come from it (it outlasts the window by several L/R).
             let duty_eff = if self.linear_seen {
@@ -520,7 +607,7 @@ impl Chip {
                 f64::from(self.cv) / f64::from(self.top)
             };
             self.supervisor.update(&Update {
-                shifter_rpm: 60.0 / (6.0 * sector_s * f64::from(self.pole_pairs)),
+                shifter_rpm,
                 meter_rpm: (new_reading && self.speed.measurements() > 0)
                     .then(|| f64::from(self.speed.rpm())),
                 duty_eff,
@@ -528,16 +615,35 @@ impl Chip {
                 torque_asked: self.i_ref > 0.0,
                 twelve_step: matches!(self.table, Table::TwelveStep { .. }),
             })
-        };
+        });
         self.linear_seen = self.linear;
+        // The duty the believed speed needs at the last current command (1 without the
+        // schedule): scaling an error by it scales that PI's gains, and its integrator, in
+        // output units, keeps its value.
+        let d = if self.control.gain_schedule {
+            let rpm = if self.speed.measurements() > 0 {
+                f64::from(self.speed.rpm())
+            } else {
+                shifter_rpm.unwrap_or(0.0)
+            };
+            // Until the first speed reading the current command is the start current.
+            let i = if self.starting() {
+                self.control.start_current_a
+            } else {
+                self.i_ref
+            };
+            scheduled_duty(&self.control, rpm, i)
+        } else {
+            1.0
+        };
         let i_ref = if self.starting() {
             self.control.start_current_a
         } else {
             let speed_error = self.speed_ref_rpm - f64::from(self.speed.rpm());
-            self.speed_pi.update(speed_error)
+            self.speed_pi.update(speed_error * d)
         };
         self.i_ref = i_ref;
-        let u = self.current_pi.update(i_ref - i);
+        let u = self.current_pi.update((i_ref - i) / d);
         self.cv = (u.round() as u32).min(self.top);
         tripped
     }
@@ -555,6 +661,9 @@ impl Chip {
             Mode::Aligning { until, .. } => until,
             Mode::Running => {
                 let mut w = self.next_pi.min(self.step_miss_deadline());
+                if let Some(r) = self.next_read() {
+                    w = w.min(r.max(Ticks(now.0 + 1)));
+                }
                 if let Some(e) = self.shifter.post_end() {
                     w = w.min(e);
                 }
@@ -710,6 +819,9 @@ drive_core::persist_fields!(Chip {
     zd,
     zdf,
     next_pi,
+    read_slot,
+    read_sum,
+    read_count,
     crossings,
     pattern
 } then Chip::check_restored);
@@ -735,6 +847,19 @@ impl Chip {
             return Err(format!(
                 "speed_ref_rpm = {} (rule: 0..={max} rpm)",
                 self.speed_ref_rpm
+            ));
+        }
+        let n = self.control.current_reads;
+        if self.read_slot >= n.max(1) || self.read_count > self.read_slot {
+            return Err(format!(
+                "read_slot = {}, read_count = {} (rule: count ≤ slot < control.current_reads = {n})",
+                self.read_slot, self.read_count
+            ));
+        }
+        if self.read_sum > self.read_count * 65535 {
+            return Err(format!(
+                "read_sum = {} (rule: at most {} reads of a 16-bit code)",
+                self.read_sum, self.read_count
             ));
         }
         if self.cv > self.top {

@@ -58,9 +58,11 @@ pub struct ControlParams {
     /// k_s·(uc − limit) \[1\]. Default 32 (the chip's). Rule: 0..=1024.
     pub anti_windup_gain: f64,
     /// Back-calculation anti-windup on the speed PI, at the current-command limit
-    /// `current_limit_a`. Default false: the chip has none there (its speed PI only clamps
-    /// the integrator at the limit, as the chip does), yet with the model's current limit this is
-    /// the PI that saturates in large speed steps and overloads.
+    /// `current_limit_a`. The chip has none there (its speed PI only clamps the integrator
+    /// at the limit), yet this is the PI that saturates in every start and large speed
+    /// step: wound to the limit while the rotor accelerates, it overshoots the command by
+    /// ≈ 9 % at 3000 rpm and takes a second to unwind. Default true (a designer's choice);
+    /// false gives the published chip.
     pub speed_anti_windup: bool,
     /// Back-calculation gain of the speed PI \[1\]: ui(k) = sat(ui(k−1) + Ki·e −
     /// k·(uc − limit)). Default 1: the integrator lands exactly on limit − Kp·e, the output
@@ -144,21 +146,57 @@ pub struct ControlParams {
     /// bit"): it saturates at 32767 counts, so with k = 10 and 12 poles the lowest speed it
     /// can read is 39 062 500 / 32767 ≈ 1192 rpm. Rule: 8..=32.
     pub speed_counter_bits: u32,
+    /// ADC reads of the shunt current averaged per PI update \[count\]: n reads spaced
+    /// (m + 1/n) carrier periods apart on the 0.64 µs clock (m the most whole periods that
+    /// keep them inside one PI period), the last at the update. 1 is the published chip:
+    /// the newest conversion at the update alone. The shunt carries current only in the
+    /// PWM on-time, so one read sees the on-time or the off-time according to where it
+    /// falls in the carrier, and with the 5.24 ms update at 65.536 carrier periods that
+    /// place moves by 0.536 of a period per update: the read alternates between them (a
+    /// period-2 zig-zag of the voltage command) under a 13.7 Hz beat (the aliases of the
+    /// carrier's first two harmonics: 88.6, 102.1 and 13.7 Hz; docs/chip.md, "The current
+    /// read"). n reads 1/n of a period apart in its phase take every carrier phase once,
+    /// and spread over the update they sample the commutation ripple at n instants, so
+    /// its alias shrinks as 1/√n. Default 16. Rule: 1..=64.
+    pub current_reads: u32,
+    /// Longest span of one speed measurement \[s\]: a measurement ends after
+    /// `speed_periods` FG periods or at the first FG edge past this, whichever comes first
+    /// (`strategies/src/speed.rs`). 0 is the published chip (k periods always): its reading
+    /// then spans k/(P/2) mechanical turns, 0.33 s at 300 rpm, and the speed loop behind it
+    /// loses its phase margin as the speed falls. Default 0.02 (6 periods at 3000 rpm, one at
+    /// and below 500 rpm on the built-in motor). Rule: 0 or 1e-3..=1.
+    pub speed_window_s: f64,
+    /// Gain schedule on the measured speed (not the published chip's). The speed loop's
+    /// plant gain, torque per ampere of the shunt current it commands, is Kt/d (the shunt
+    /// carries the phase current only in the PWM on-time), and the current loop's,
+    /// ∂i_shunt/∂cv ≈ I_lr·d/top, is d-fold: over the speed range d spans 0.02..1, so fixed
+    /// gains are either unstable at low speed or sluggish at high speed. With the schedule
+    /// the chip scales the speed PI's error by d̂ and the current PI's by 1/d̂, where d̂ is
+    /// the duty the measured speed n̂ (the meter's, or the last 60° interval's before its
+    /// first reading) needs at the last current command i: d̂ = a + i/(d̂·I_lr) with
+    /// a = n̂/`supervisor_no_load_rpm` and I_lr = `supervisor_locked_rotor_a`, clamped to
+    /// [`schedule_min_duty`, 1]; so `speed_kp`, `speed_ki`, `current_kp` and `current_ki` are the gains at
+    /// full duty and the loops keep their margins at every speed (`drive-bench tune`,
+    /// docs/chip.md "Loop design"). Default true; false gives the published fixed gains.
+    pub gain_schedule: bool,
+    /// Lowest duty d̂ the gain schedule assumes \[1\]: it bounds the current PI's gain
+    /// (1/d̂-fold) at standstill with no current asked. Default 0.03. Rule: 1e-3..=1.
+    pub schedule_min_duty: f64,
 }
 
 impl Default for ControlParams {
     fn default() -> Self {
         ControlParams {
             speed_ref_rpm: 3000.0,
-            speed_kp: 5.0e-5,
-            speed_ki: 1.0e-6,
-            current_kp: 300.0,
-            current_ki: 600.0,
+            speed_kp: 3.162e-4,
+            speed_ki: 3.316e-6,
+            current_kp: 0.0,
+            current_ki: 203.3,
             current_limit_a: 0.25,
             start_current_a: 0.15,
             anti_windup: true,
             anti_windup_gain: 32.0,
-            speed_anti_windup: false,
+            speed_anti_windup: true,
             speed_anti_windup_gain: 1.0,
             startup_duty: 0.2,
             align_s: [0.7, 0.038, 0.015],
@@ -178,6 +216,10 @@ impl Default for ControlParams {
             supervisor_blind_sectors: 12,
             speed_periods: 10,
             speed_counter_bits: 15,
+            current_reads: 16,
+            speed_window_s: 0.02,
+            gain_schedule: true,
+            schedule_min_duty: 0.03,
         }
     }
 }
@@ -365,6 +407,27 @@ impl ControlParams {
             1000.0,
             "must be in 2..=1000 crossings",
         )?;
+        check_range(
+            "control.current_reads",
+            f64::from(self.current_reads),
+            1.0,
+            64.0,
+            "must be in 1..=64 reads per PI update",
+        )?;
+        check_range(
+            "control.schedule_min_duty",
+            self.schedule_min_duty,
+            1e-3,
+            1.0,
+            "must be in 1e-3..=1 (a fraction of full duty)",
+        )?;
+        if !(self.speed_window_s == 0.0 || (1e-3..=1.0).contains(&self.speed_window_s)) {
+            return Err(ParamError::new(
+                "control.speed_window_s",
+                self.speed_window_s,
+                "must be 0 (off) or in 1e-3..=1 s",
+            ));
+        }
         check_range(
             "control.speed_periods",
             f64::from(self.speed_periods),

@@ -5,6 +5,13 @@
 //! For P = 12 and k = 10 that is the chip's ω = 39 062 500 / N. The result is an integer
 //! (the chip divides), updated once per k periods; the counter saturates at its width, which
 //! sets the lowest speed it can read.
+//!
+//! With a window (`control.speed_window_s`, not the published chip's) a measurement also
+//! ends at the first FG edge at which the window has passed, so it spans
+//! k' = min(k, ⌈window / T_FG⌉) periods: ω = 23 437 500·k' / ((P/2)·N). Below the speed
+//! at which k periods fill the window the reading then comes every period or few, and its
+//! delay, ≈ half the measured span plus the wait for the next reading, stops growing as
+//! k/ω: the speed loop's phase lag at low speed is what limits it there (docs/chip.md).
 
 use drive_core::{Ticks, clocks};
 
@@ -14,6 +21,9 @@ pub struct SpeedMeter {
     periods: u32,
     max_count: u64,
     numerator: u64,
+    /// The window in speed-counter clocks (`u64::MAX`: none).
+    window: u64,
+    pole_pairs: u64,
     start: Option<Ticks>,
     edges: u32,
     rpm: u32,
@@ -23,10 +33,19 @@ pub struct SpeedMeter {
 impl SpeedMeter {
     /// A meter over `periods` FG periods with a `bits`-wide counter, for `pole_pairs` (P/2).
     pub fn new(periods: u32, bits: u32, pole_pairs: u32) -> Self {
+        Self::windowed(periods, bits, pole_pairs, None)
+    }
+
+    /// Like [`SpeedMeter::new`], a measurement also ending at the first FG edge at or after
+    /// `window` since it began (`None`: only after `periods`).
+    pub fn windowed(periods: u32, bits: u32, pole_pairs: u32, window: Option<Ticks>) -> Self {
+        let clk = clocks::SPEED_COUNTER.0;
         SpeedMeter {
             periods: periods.max(1),
             max_count: (1u64 << bits.clamp(1, 63)) - 1,
             numerator: 23_437_500 * u64::from(periods.max(1)) / u64::from(pole_pairs.max(1)),
+            window: window.map_or(u64::MAX, |w| w.0.div_ceil(clk)),
+            pole_pairs: u64::from(pole_pairs.max(1)),
             start: None,
             edges: 0,
             rpm: 0,
@@ -41,10 +60,16 @@ impl SpeedMeter {
             return;
         };
         self.edges += 1;
-        if self.edges == self.periods {
-            let clk = clocks::SPEED_COUNTER.0;
-            let n = (now.0 / clk - start.0 / clk).clamp(1, self.max_count);
-            self.rpm = (self.numerator / n).min(u64::from(u32::MAX)) as u32;
+        let clk = clocks::SPEED_COUNTER.0;
+        let elapsed = now.0 / clk - start.0 / clk;
+        if self.edges == self.periods || elapsed >= self.window {
+            let n = elapsed.clamp(1, self.max_count);
+            let numerator = if self.edges == self.periods {
+                self.numerator
+            } else {
+                23_437_500 * u64::from(self.edges) / self.pole_pairs
+            };
+            self.rpm = (numerator / n).min(u64::from(u32::MAX)) as u32;
             self.measurements += 1;
             self.start = Some(now);
             self.edges = 0;
@@ -112,5 +137,35 @@ mod tests {
             wide.fg_rising(Ticks(period.0 * k));
         }
         assert_eq!(wide.rpm(), 500);
+    }
+
+    #[test]
+    fn a_window_ends_a_measurement_at_the_first_fg_edge_past_it() {
+        // 300 rpm, P = 12: one FG period = 1/30 s = 13020.8 counts, past a 20 ms window at
+        // the first edge: one period per reading, ω = 23 437 500·1/(6·13020) = 300 rpm
+        // (integer division), within the 15-bit counter that 10 periods would overflow.
+        let mut m = SpeedMeter::windowed(10, 15, 6, Some(Ticks::from_seconds(0.02).unwrap()));
+        let period = Ticks::from_seconds(1.0 / 30.0).unwrap();
+        m.fg_rising(Ticks::ZERO);
+        m.fg_rising(period);
+        assert_eq!(m.measurements(), 1);
+        let n = period.0 / 128;
+        assert_eq!(m.rpm() as u64, 23_437_500 / 6 / n);
+        assert_eq!(m.rpm(), 300);
+        // 3000 rpm: 3.33 ms per period, so the 20 ms window ends a reading after 6 periods
+        // (20.0 ms), before the 10 of the published meter.
+        let mut m = SpeedMeter::windowed(10, 15, 6, Some(Ticks::from_seconds(0.02).unwrap()));
+        let period = Ticks::from_seconds(1.0 / 300.0).unwrap();
+        for k in 0..=5 {
+            m.fg_rising(Ticks(period.0 * k));
+        }
+        assert_eq!(
+            m.measurements(),
+            0,
+            "5 periods (16.7 ms) are inside the window"
+        );
+        m.fg_rising(Ticks(period.0 * 6));
+        assert_eq!(m.measurements(), 1);
+        assert_eq!(m.rpm(), 3000);
     }
 }
