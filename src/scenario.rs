@@ -239,15 +239,19 @@ pub struct TraceRow {
     pub duty: f64,
     /// Restarts so far.
     pub restarts: u32,
+    /// The controller's speed command \[rpm\].
+    pub speed_ref_rpm: f64,
+    /// The controller's current command (the speed PI's output) \[A\].
+    pub current_ref_a: f64,
 }
 
 impl TraceRow {
     /// The CSV header, in field order.
-    pub const HEADER: &'static str = "t_s,speed_rpm,speed_est_rpm,theta_e_deg,i_u,i_v,i_w,v_u,v_v,v_w,v_n,torque_nm,state,zd,zdf,linear,duty,restarts";
+    pub const HEADER: &'static str = "t_s,speed_rpm,speed_est_rpm,theta_e_deg,i_u,i_v,i_w,v_u,v_v,v_w,v_n,torque_nm,state,zd,zdf,linear,duty,restarts,speed_ref_rpm,current_ref_a";
 
     /// A row's usual length as CSV \[bytes\]: every float at full precision (the shortest
-    /// decimal that reads back to the same value), ≈ 221 bytes measured at 3000 rpm.
-    pub const TYPICAL_BYTES: u64 = 225;
+    /// decimal that reads back to the same value), ≈ 245 bytes measured at 3000 rpm.
+    pub const TYPICAL_BYTES: u64 = 250;
 
     /// The row as CSV (no newline).
     pub fn csv(&self) -> String {
@@ -300,6 +304,10 @@ impl TraceRow {
         put(f.format(self.duty).as_bytes());
         put(b",");
         put(int.of(u64::from(self.restarts)));
+        for x in [self.speed_ref_rpm, self.current_ref_a] {
+            put(b",");
+            put(f.format(x).as_bytes());
+        }
         w.write_all(&row[..n])
     }
 
@@ -345,6 +353,8 @@ impl TraceRow {
             linear: s.linear.into(),
             duty: f64::from(s.duty) / f64::from(eng.carrier().top),
             restarts: s.restarts,
+            speed_ref_rpm: eng.controller.speed_ref_rpm(),
+            current_ref_a: s.current_ref_a,
         }
     }
 }
@@ -698,6 +708,7 @@ pub fn run_observed(
     let Judgement { verdict, reason } = witness.judge(&Ending {
         command_rpm: eng.controller.speed_ref_rpm(),
         speed_mean_rpm: speed.mean(),
+        speed_rms_rpm: speed.mean().hypot(speed.std_dev()),
         window_s: speed.duration(),
         pole_pairs: config.motor.poles / 2,
         chip_speed_rpm: f64::from(s.speed_est_rpm),

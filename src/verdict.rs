@@ -23,7 +23,11 @@
 //! [`VerdictRule::stalled_fraction`] of the command), `lost-sync` (the controller believes
 //! it runs, or restarted in the window, and the rotor disagrees), `off-speed` (in
 //! synchronism, but the true mean speed is outside ±[`VerdictRule::speed_tolerance`] of
-//! the command: beyond reach, or hunting), `running`.
+//! the command: beyond reach, or hunting), `running`. Before all but `non-finite`: a run
+//! whose command ends at 0 is `stopped` when its rotor is at rest over the window (rms
+//! speed below [`VerdictRule::rest_rpm`]) and the controller did not restart there; any
+//! other ending of a 0 command is judged as before (a drive that keeps turning is
+//! `off-speed` or `lost-sync`, one that restarted `lost-sync`).
 
 use crate::metrics::wrap_deg;
 use serde::Serialize;
@@ -47,11 +51,15 @@ pub enum Verdict {
     GaveUp,
     /// The plant state became non-finite.
     NonFinite,
+    /// Told to stop (a command of 0), the rotor is at rest and the controller did not
+    /// restart it: a success.
+    Stopped,
 }
 
 impl Verdict {
-    /// Every verdict, best first.
-    pub const ALL: [Verdict; 7] = [
+    /// Every verdict: those of a speed command best first, then `stopped` (last, so that
+    /// the FMU's enumeration items, counted from 1 in this order, keep their numbers).
+    pub const ALL: [Verdict; 8] = [
         Verdict::Running,
         Verdict::OffSpeed,
         Verdict::LostSync,
@@ -59,6 +67,7 @@ impl Verdict {
         Verdict::NotStarted,
         Verdict::GaveUp,
         Verdict::NonFinite,
+        Verdict::Stopped,
     ];
 
     /// The name used in tables, JSON and CSV.
@@ -71,6 +80,7 @@ impl Verdict {
             Verdict::NotStarted => "not-started",
             Verdict::GaveUp => "gave-up",
             Verdict::NonFinite => "non-finite",
+            Verdict::Stopped => "stopped",
         }
     }
 
@@ -85,12 +95,18 @@ impl Verdict {
             Verdict::NotStarted => 6,
             Verdict::GaveUp => 7,
             Verdict::NonFinite => 8,
+            Verdict::Stopped => 0,
         }
     }
 
-    /// Whether the run's steady-state figures describe a drive doing its job.
+    /// Whether the run's steady-state figures describe a drive doing its job at speed.
     pub fn is_running(self) -> bool {
         self == Verdict::Running
+    }
+
+    /// Whether the drive did what it was told: running at the command, or stopped.
+    pub fn is_success(self) -> bool {
+        matches!(self, Verdict::Running | Verdict::Stopped)
     }
 
     /// Whether the commutation followed the rotor to the end (running or off-speed): what
@@ -122,6 +138,11 @@ pub struct VerdictRule {
     /// Electrical turns of consecutive commutations in synchronism that make a start.
     /// Default 2.
     pub started_turns: u32,
+    /// Rms true speed over the window below which a rotor counts as at rest \[rpm\].
+    /// Default 5: the bearing drag alone (2.5e-4 N·m on 17e-7 kg·m², 147 rad/s²) takes
+    /// the built-in rotor from 5 rpm to rest in 3.6 ms, so over a window of tenths of a
+    /// second an rms below it is a rotor at rest, not one coasting.
+    pub rest_rpm: f64,
 }
 
 impl Default for VerdictRule {
@@ -132,6 +153,7 @@ impl Default for VerdictRule {
             sync_share: 0.95,
             stalled_fraction: 0.1,
             started_turns: 2,
+            rest_rpm: 5.0,
         }
     }
 }
@@ -262,6 +284,8 @@ impl LiveVerdict {
         let command = command_rpm.abs().max(1.0);
         if !finite || !self.mean_rpm.is_finite() {
             Verdict::NonFinite
+        } else if command_rpm == 0.0 && self.mean_rpm.abs() < self.rule.rest_rpm {
+            Verdict::Stopped
         } else if gave_up {
             Verdict::GaveUp
         } else if !self.started {
@@ -307,6 +331,8 @@ pub struct Ending {
     pub command_rpm: f64,
     /// Time-weighted true mean speed over the window \[rpm\].
     pub speed_mean_rpm: f64,
+    /// Time-weighted rms true speed over the window \[rpm\].
+    pub speed_rms_rpm: f64,
     /// Length of the window \[s\].
     pub window_s: f64,
     /// Pole pairs P/2.
@@ -404,6 +430,19 @@ impl Witness {
         if !mean.is_finite() {
             return j(Verdict::NonFinite, format!("the true mean speed is {mean}"));
         }
+        let restarts_in_window = end
+            .restarts
+            .0
+            .saturating_sub(self.restarts_at_window.unwrap_or(end.restarts.0));
+        if cmd == 0.0 && end.speed_rms_rpm < r.rest_rpm && restarts_in_window == 0 {
+            return j(
+                Verdict::Stopped,
+                format!(
+                    "told to stop, the rotor is at rest: rms true speed {:.2} rpm over the window (rule < {} rpm), no restart there ({} in the run)",
+                    end.speed_rms_rpm, r.rest_rpm, end.restarts.0
+                ),
+            );
+        }
         if end.gave_up {
             return j(
                 Verdict::GaveUp,
@@ -440,10 +479,6 @@ impl Witness {
                 ),
             );
         }
-        let restarts_in_window = end
-            .restarts
-            .0
-            .saturating_sub(self.restarts_at_window.unwrap_or(end.restarts.0));
         if restarts_in_window > 0 || self.window_left_closed_loop {
             return j(
                 Verdict::LostSync,
@@ -518,6 +553,7 @@ mod tests {
         Ending {
             command_rpm: 3000.0,
             speed_mean_rpm: mean,
+            speed_rms_rpm: mean.abs(),
             window_s: 1.0,
             pole_pairs: 6,
             chip_speed_rpm: 3000.0,
@@ -636,13 +672,43 @@ mod tests {
     }
 
     #[test]
-    fn exit_codes_are_distinct_and_zero_only_when_running() {
+    fn exit_codes_are_distinct_and_zero_only_on_success() {
         let mut codes: Vec<i32> = Verdict::ALL.iter().map(|v| v.exit_code()).collect();
-        assert_eq!(codes[0], 0);
+        for (v, c) in Verdict::ALL.iter().zip(&codes) {
+            assert_eq!(*c == 0, v.is_success(), "{v}");
+        }
         codes.sort();
         codes.dedup();
-        assert_eq!(codes.len(), Verdict::ALL.len());
+        // Running and stopped share 0; every failure has its own code.
+        assert_eq!(codes.len(), Verdict::ALL.len() - 1);
         assert!(!codes[1..].contains(&1) && !codes.contains(&2));
+    }
+
+    #[test]
+    fn a_zero_command_with_the_rotor_at_rest_and_no_restart_there_is_stopped() {
+        let w = witness(3000.0, &[0.0], 1.0);
+        let stop = Ending {
+            command_rpm: 0.0,
+            speed_rms_rpm: 0.3,
+            ..ending(0.0)
+        };
+        assert_eq!(w.judge(&stop).verdict, Verdict::Stopped);
+        // Still turning at 6 rpm rms: not at rest, so judged as a speed command.
+        let turning = Ending {
+            speed_rms_rpm: 6.0,
+            ..stop
+        };
+        assert_ne!(w.judge(&turning).verdict, Verdict::Stopped);
+        // A restart in the window: the chip started the rotor it was told to stop.
+        let mut w = witness(3000.0, &[0.0], 1.0);
+        w.instant(2.9, false, 1, true, true);
+        let restarted = Ending {
+            restarts: (1, 5),
+            ..stop
+        };
+        assert_eq!(w.judge(&restarted).verdict, Verdict::LostSync);
+        // A non-zero command is never stopped, however still the rotor.
+        assert_ne!(w.judge(&ending(0.0)).verdict, Verdict::Stopped);
     }
 
     #[test]

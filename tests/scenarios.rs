@@ -128,7 +128,7 @@ fn a_ramp_to_standstill_ends_stopped_and_is_not_running() {
     let (_, sc) = load("ramp-to-standstill.toml");
     let (out, rows) = traced(sc, 4.9, 100.0);
     let s = &out.summary;
-    assert!(!s.verdict.is_running(), "{}", s.verdict_reason);
+    assert_eq!(s.verdict, Verdict::Stopped, "{}", s.verdict_reason);
     assert!(
         rows.last().unwrap().speed_rpm.abs() < 100.0,
         "{}",

@@ -373,6 +373,11 @@ impl Chip {
         }
     }
 
+    /// A command of 0 with `stop_at_zero`: off, and no start until it rises.
+    fn told_to_stop(&self) -> bool {
+        self.control.stop_at_zero && self.speed_ref_rpm == 0.0
+    }
+
     fn duty(&self) -> u32 {
         if self.linear { self.top } else { self.cv }
     }
@@ -651,7 +656,10 @@ impl Chip {
     fn wake_at(&self, now: Ticks) -> Ticks {
         match self.mode {
             Mode::Off => {
-                if self.start && !self.reset {
+                if self.start && !self.reset && self.told_to_stop() {
+                    // Stopped: the sequencer looks at the command on its own clock.
+                    Ticks(now.0 + 1).next_edge(clocks::ALIGN)
+                } else if self.start && !self.reset {
                     Ticks(self.start_since.0 + START_DEBOUNCE.0).max(Ticks(now.0 + 1))
                 } else {
                     Ticks::NEVER
@@ -896,13 +904,16 @@ impl Controller for Chip {
         } else {
             match self.mode {
                 Mode::Off => {
-                    if self.start && now.0 >= self.start_since.0 + START_DEBOUNCE.0 {
+                    if self.start
+                        && !self.told_to_stop()
+                        && now.0 >= self.start_since.0 + START_DEBOUNCE.0
+                    {
                         self.begin_align(now);
                     }
                 }
                 Mode::GaveUp => {}
                 Mode::Aligning { step, until } => {
-                    if !self.start {
+                    if !self.start || self.told_to_stop() {
                         self.switch_off();
                     } else if now >= until {
                         let next = usize::from(step) + 1;
@@ -919,7 +930,7 @@ impl Controller for Chip {
                     }
                 }
                 Mode::Running => {
-                    if self.start {
+                    if self.start && !self.told_to_stop() {
                         self.run(now, sensed);
                     } else {
                         self.switch_off();

@@ -182,14 +182,24 @@ pub struct ControlParams {
     /// Lowest duty d̂ the gain schedule assumes \[1\]: it bounds the current PI's gain
     /// (1/d̂-fold) at standstill with no current asked. Default 0.03. Rule: 1e-3..=1.
     pub schedule_min_duty: f64,
+    /// A speed command of 0 means stop (not the published chip's): the chip switches the
+    /// bridge off (flag 0110), lets the rotor coast to rest and does not start, align or
+    /// restart until the command rises above 0, whereupon it starts as from power-on.
+    /// The published chip keeps commutating at a command of 0 (the speed PI asks no
+    /// current): the rotor coasts, and below ≈ 250 rpm the comparator's PWM-edge spikes
+    /// outrun its back-EMF, so it commutates on false crossings at a rate of its own (on
+    /// the built-in drive 200 µs a sector, read as ≈ 8 300 rpm on a rotor at rest), FG
+    /// keeps toggling so step miss never fires, and the supervisor (or nothing, without
+    /// it) restarts a rotor it was told to stop. Default true.
+    pub stop_at_zero: bool,
 }
 
 impl Default for ControlParams {
     fn default() -> Self {
         ControlParams {
             speed_ref_rpm: 3000.0,
-            speed_kp: 3.162e-4,
-            speed_ki: 3.316e-6,
+            speed_kp: 2.610e-4,
+            speed_ki: 4.105e-6,
             current_kp: 0.0,
             current_ki: 203.3,
             current_limit_a: 0.25,
@@ -220,6 +230,7 @@ impl Default for ControlParams {
             speed_window_s: 0.02,
             gain_schedule: true,
             schedule_min_duty: 0.03,
+            stop_at_zero: true,
         }
     }
 }
