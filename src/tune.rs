@@ -27,7 +27,8 @@
 //! proportional term adds no phase and passes the read's ripple straight to the duty), its
 //! pole 1 − Ki·g/d̂ at [`CURRENT_POLE`] where g/d̂ is largest; the speed PI's gain and zero
 //! give the highest lowest crossover over the range with a phase margin of at least
-//! [`PHASE_MARGIN_DEG`] and a gain margin of at least [`GAIN_MARGIN_DB`] at every speed of it.
+//! [`PHASE_MARGIN_DEG`] and a gain margin of at least [`GAIN_MARGIN_DB`] at every speed of
+//! it, the zero no further than [`ZERO_RATIO_MAX`] below that crossover.
 //! What the model leaves out (the commutation's torque ripple, the meter's quantisation,
 //! saturation) is checked by simulation, not here.
 
@@ -43,6 +44,10 @@ use strategies::chip::scheduled_duty;
 pub const PHASE_MARGIN_DEG: f64 = 50.0;
 /// Smallest gain margin the tuned speed loop keeps at every speed of the range \[dB\].
 pub const GAIN_MARGIN_DB: f64 = 10.0;
+/// Largest ratio of the lowest crossover to the speed PI's zero: a zero further below
+/// leaves a slow tail (time constant 1/zero) after every step and start, as the
+/// integrator that wound while the rotor accelerated unwinds.
+pub const ZERO_RATIO_MAX: f64 = 3.0;
 /// The current loop's pole 1 − Ki·g/d̂ at its fastest: 0.6, a loop gain of 0.4 per
 /// update (no overshoot, gain margin 2/0.4 = 14 dB).
 pub const CURRENT_POLE: f64 = 0.6;
@@ -324,7 +329,7 @@ pub fn tune(config: &DriveConfig, from_rpm: f64, to_rpm: f64) -> Result<Tuned, T
     let mut best: Option<(f64, f64, f64, Vec<Margins>)> = None;
     for k in 0..=72 {
         let kp = 10f64.powf(-7.0 + 6.0 * f64::from(k) / 72.0);
-        for zero_rad_s in [0.5, 1.0, 1.5, 2.0, 3.0, 4.0, 6.0, 8.0] {
+        for zero_rad_s in [0.5, 1.0, 1.5, 2.0, 2.5, 3.0, 3.5, 4.0, 5.0, 6.0, 8.0] {
             model.control.speed_kp = kp;
             model.control.speed_ki = kp * zero_rad_s * model.t;
             let margins: Vec<Margins> = speeds.iter().map(|&n| model.margins(n)).collect();
@@ -335,6 +340,10 @@ pub fn tune(config: &DriveConfig, from_rpm: f64, to_rpm: f64) -> Result<Tuned, T
                 .iter()
                 .filter_map(|m| m.crossover_rad_s)
                 .fold(f64::INFINITY, f64::min);
+            // The integral's tail (time constant 1/zero) within a few crossover periods.
+            if zero_rad_s < lowest / ZERO_RATIO_MAX {
+                continue;
+            }
             if best.as_ref().is_none_or(|b| lowest > b.0) {
                 best = Some((lowest, kp, model.control.speed_ki, margins));
             }

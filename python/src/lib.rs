@@ -147,7 +147,7 @@ fn guarded<T>(f: impl FnOnce() -> Result<T, String>) -> Result<T, String> {
 /// A trace held as columns.
 #[derive(Default)]
 struct Trace {
-    floats: [Vec<f64>; 13],
+    floats: [Vec<f64>; 15],
     flags: [Vec<u8>; 4],
     restarts: Vec<u32>,
 }
@@ -177,6 +177,8 @@ impl Trace {
             r.v_n,
             r.torque_nm,
             r.duty,
+            r.speed_ref_rpm,
+            r.current_ref_a,
         ];
         for (c, x) in self.floats.iter_mut().zip(floats) {
             c.push(x);

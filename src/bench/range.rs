@@ -52,22 +52,26 @@ pub struct Meter {
     pub periods: u32,
     /// Counter width \[bits\].
     pub bits: u32,
+    /// The meter's window `control.speed_window_s` \[s\] (`None`: the config's).
+    pub window_s: Option<f64>,
 }
 
 impl Meter {
-    /// The published chip's: 15 bits over 10 FG periods; it cannot read below 1192 rpm
-    /// with 12 poles (39 062 500 / 32 767).
+    /// The published chip's: 15 bits over 10 FG periods, no window; it cannot read below
+    /// 1192 rpm with 12 poles (39 062 500 / 32 767).
     pub const AS_PUBLISHED: Meter = Meter {
         label: "15-bit (as published)",
         periods: 10,
         bits: 15,
+        window_s: Some(0.0),
     };
-    /// The same meter with a 24-bit counter, which reads down to 2.3 rpm: a meter that does
-    /// not bind, so that the floors show the guards.
+    /// The config's meter (its window) with a 24-bit counter, which reads down to 2.3 rpm:
+    /// a meter that does not bind, so that the floors show the guards.
     pub const WIDE: Meter = Meter {
         label: "24-bit (does not bind)",
         periods: 10,
         bits: 24,
+        window_s: None,
     };
 
     /// `config` with this meter.
@@ -75,6 +79,9 @@ impl Meter {
         let mut c = config.clone();
         c.control.speed_periods = self.periods;
         c.control.speed_counter_bits = self.bits;
+        if let Some(w) = self.window_s {
+            c.control.speed_window_s = w;
+        }
         c
     }
 }

@@ -311,23 +311,27 @@ fn run(cli: Cli) -> Result<i32, String> {
                 }
             };
             let t = tune::tune(&cfg, from_rpm, to_rpm).map_err(|e| e.to_string())?;
-            println!(
+            // A closed stdout (a pager quit) ends the listing, not the program.
+            let mut o = std::io::stdout().lock();
+            let _ = writeln!(
+                o,
                 "    rpm   duty  k'  current pole  crossover rad/s  phase margin °  gain margin dB"
             );
             for m in &t.margins {
-                let opt = |x: Option<f64>, p: usize| x.map_or("-".into(), |v| format!("{v:.p$}"));
-                println!(
-                    "{:7.0} {:6.3} {:3} {:13.3} {:16} {:15} {:15}",
+                let opt = |x: Option<f64>| x.map_or("-".into(), |v| format!("{v:.1}"));
+                let _ = writeln!(
+                    o,
+                    "{:7.0} {:6.3} {:3} {:13.3} {:>16} {:>15} {:>15}",
                     m.rpm,
                     m.duty,
                     m.meter_periods,
                     m.current_pole,
-                    opt(m.crossover_rad_s, 1),
-                    opt(m.phase_margin_deg, 1),
-                    opt(m.gain_margin_db, 1)
+                    opt(m.crossover_rad_s),
+                    opt(m.phase_margin_deg),
+                    opt(m.gain_margin_db)
                 );
             }
-            print!("{}", t.to_toml());
+            let _ = write!(o, "{}", t.to_toml());
             if let Some(p) = &out {
                 write(p, &t.apply(&cfg).to_toml())?;
             }
