@@ -417,6 +417,13 @@ fn anti_windup_releases_the_saturated_current_loop_at_once() {
     let mut wound = Vec::new();
     for aw in [true, false] {
         let mut cfg = DriveConfig::default();
+        // The published current PI (Kp 300, Ki 600, no schedule): the figures above are
+        // its; the shipped integral-only PI winds up more slowly, to ≈ 3000 counts here.
+        cfg.control.current_kp = 300.0;
+        cfg.control.current_ki = 600.0;
+        cfg.control.gain_schedule = false;
+        cfg.control.speed_kp = 5e-5;
+        cfg.control.speed_ki = 1e-6;
         cfg.control.anti_windup = aw;
         let r = run_events(cfg, 16_000.0, 4.5, &[(3.5, Event::SpeedRef(8000.0))], 9.0);
         assert_eq!((r.mode, r.restarts), (Mode::Running, 0), "aw {aw}");

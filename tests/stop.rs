@@ -46,7 +46,10 @@ fn a_drive_ramped_to_zero_stops_and_stays_stopped() {
     assert_eq!(verdict, Verdict::Stopped, "{reason}");
     assert_eq!(verdict.exit_code(), 0);
     assert_eq!(restarts_after, 0, "restarts after the command reached 0");
-    assert!(peak < 5.0, "the rotor still turns at {peak} rpm in the window");
+    assert!(
+        peak < 5.0,
+        "the rotor still turns at {peak} rpm in the window"
+    );
 }
 
 #[test]

@@ -152,9 +152,9 @@ mod tests {
         let n = period.0 / 128;
         assert_eq!(m.rpm() as u64, 23_437_500 / 6 / n);
         assert_eq!(m.rpm(), 300);
-        // 3000 rpm: 3.33 ms per period, so the 20 ms window ends a reading after 6 periods
+        // 3000 rpm: 3.33 ms per period, so a 19 ms window ends a reading at the 6th edge
         // (20.0 ms), before the 10 of the published meter.
-        let mut m = SpeedMeter::windowed(10, 15, 6, Some(Ticks::from_seconds(0.02).unwrap()));
+        let mut m = SpeedMeter::windowed(10, 15, 6, Some(Ticks::from_seconds(0.019).unwrap()));
         let period = Ticks::from_seconds(1.0 / 300.0).unwrap();
         for k in 0..=5 {
             m.fg_rising(Ticks(period.0 * k));
