@@ -1356,7 +1356,11 @@ mod tests {
         c.cv = 200;
         assert!((c.start_current() - 0.055).abs() < 1e-12);
         c.cv = 2000;
-        assert_eq!(c.start_current(), c.control.current_limit_a, "capped at the limit");
+        assert_eq!(
+            c.start_current(),
+            c.control.current_limit_a,
+            "capped at the limit"
+        );
         c.control.start_phase_current_a = 0.0;
         assert_eq!(c.start_current(), c.control.start_current_a, "published");
     }

@@ -332,7 +332,11 @@ impl ControlParams {
             ("control.start_phase_current_a", self.start_phase_current_a),
         ] {
             if !(x == 0.0 || (0.01..=10.0).contains(&x)) {
-                return Err(ParamError::new(name, x, "must be 0 (off) or in 0.01..=10 A"));
+                return Err(ParamError::new(
+                    name,
+                    x,
+                    "must be 0 (off) or in 0.01..=10 A",
+                ));
             }
         }
         for (k, &d) in self.align_s.iter().enumerate() {
