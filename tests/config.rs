@@ -97,6 +97,14 @@ fn bad_configs_are_refused_naming_the_key() {
     );
     refused("[control]\nstartup_duty = 0.0\n", "control.startup_duty");
     refused(
+        "[control]\nalign_current_a = 0.005\n",
+        "control.align_current_a",
+    );
+    refused(
+        "[control]\nstart_phase_current_a = -0.5\n",
+        "control.start_phase_current_a",
+    );
+    refused(
         "[control]\nstartup_confirm_deg = 16\n",
         "control.startup_confirm_deg",
     );

@@ -72,6 +72,31 @@ pub struct ControlParams {
     /// Voltage command during alignment and start-up [fraction of the carrier top, 0..1].
     /// Default 0.2 (≈ 0.5 A into a locked phase pair at 12 V). Rule: 0 < x ≤ 1.
     pub startup_duty: f64,
+    /// Alignment by current (not in the published chip): the phase current the first
+    /// alignment step regulates to \[A\]. The chip starts that step at zero duty and, at
+    /// every PI update, moves the duty by [`ALIGN_GAIN`] per ampere of error in the phase
+    /// current it infers from the averaged shunt reads, î = i_shunt/d (the shunt carries
+    /// the phase current in the on-time alone); the duty reached at the end of the step is
+    /// held for the other two. A fixed `startup_duty` gives a current ≈ (d·V_DD − V_diode)/
+    /// (2R): 1.6 A on a 0.4 Ω winding against 0.39 A on the built-in 2.2 Ω one, and the
+    /// rotor's swing between the timed steps v→w and v→u (its period ∝ 1/√I) then lands it
+    /// anywhere at the hand-over (docs/chip.md, "Start-up"). Default 0.39 (what 20 % duty
+    /// gives on the built-in motor, so it aligns as before). 0 gives the published chip:
+    /// `startup_duty` throughout. Rule: 0 or 0.01..=10.
+    ///
+    /// [`ALIGN_GAIN`]: crate::chip::ALIGN_GAIN
+    pub align_current_a: f64,
+    /// Start-up current command as a phase current (not in the published chip) \[A\]:
+    /// from the hand-over to the first speed measurement the current command is
+    /// d·`start_phase_current_a` (d the duty in force) instead of `start_current_a`, so the
+    /// torque, ∝ the phase current ≈ i_shunt/d, and the rotor's first acceleration do not
+    /// depend on the winding's resistance. A fixed shunt command i_s needs a phase current
+    /// ≈ √(i_s·(V_DD/2R)) near standstill: 2.3 times the built-in motor's on a 0.4 Ω
+    /// winding, and the rotor then outruns the hand-over's assumed t_60
+    /// (`handover_t60_s`), which times the first commutations. Capped at
+    /// `current_limit_a`. Default 0.55 (what `start_current_a` gives on the built-in
+    /// motor). 0 gives the published chip: `start_current_a`. Rule: 0 or 0.01..=10.
+    pub start_phase_current_a: f64,
     /// Durations of the three alignment steps u→v, v→w, v→u \[s\]; each is rounded to the
     /// align clock (327.68 µs). Default [0.7, 0.038, 0.015] (docs/chip.md). Rule: each in
     /// 0.000 327 68..=10.
@@ -209,6 +234,8 @@ impl Default for ControlParams {
             speed_anti_windup: true,
             speed_anti_windup_gain: 1.0,
             startup_duty: 0.2,
+            align_current_a: 0.39,
+            start_phase_current_a: 0.55,
             align_s: [0.7, 0.038, 0.015],
             handover_t60_s: 0.015,
             startup_confirm_deg: 2,
@@ -310,6 +337,18 @@ impl ControlParams {
                 self.startup_duty,
                 "must be in (0, 1] (fraction of the carrier top)",
             ));
+        }
+        for (name, x) in [
+            ("control.align_current_a", self.align_current_a),
+            ("control.start_phase_current_a", self.start_phase_current_a),
+        ] {
+            if !(x == 0.0 || (0.01..=10.0).contains(&x)) {
+                return Err(ParamError::new(
+                    name,
+                    x,
+                    "must be 0 (off) or in 0.01..=10 A",
+                ));
+            }
         }
         for (k, &d) in self.align_s.iter().enumerate() {
             let field = [
