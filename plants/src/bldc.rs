@@ -352,7 +352,7 @@ impl BldcPlant {
     /// toggle history and work counters restart from zero.
     pub fn set_rotor(&mut self, theta_e: f64, speed_rpm: f64, lock: bool) {
         self.settle();
-        self.x[THETA] = theta_e.rem_euclid(TAU);
+        self.x[THETA] = wrap_angle(theta_e);
         self.x[OMEGA] = speed_rpm * TAU / 60.0;
         self.speed_lock = lock;
         self.refresh_start();
@@ -1188,7 +1188,7 @@ impl BldcPlant {
         self.t = t;
         self.tick = Ticks::at_or_after(t);
         if !(0.0..TAU).contains(&self.x[THETA]) {
-            self.x[THETA] = self.x[THETA].rem_euclid(TAU);
+            self.x[THETA] = wrap_angle(self.x[THETA]);
         }
         self.stats.steps += 1;
     }
@@ -1280,7 +1280,7 @@ impl BldcPlant {
             Some(la) => {
                 let mut x = self.integrate_from(&la.x0, self.t - la.t0, la.base, &la.f0);
                 if !(0.0..TAU).contains(&x[THETA]) {
-                    x[THETA] = x[THETA].rem_euclid(TAU);
+                    x[THETA] = wrap_angle(x[THETA]);
                 }
                 x
             }
@@ -1566,6 +1566,15 @@ struct StepResponse<'a> {
 /// for the network's solution (see [`Circuit::solve_planned`]).
 type Form = (Linearised, Option<Modal>, Plan);
 
+/// θe wrapped into its canonical range 0..2π, as it is stored. `rem_euclid` of an
+/// angle a hair below 0 (a rotor at rest nudged backwards by a load of 1e-12 N·m) rounds
+/// to 2π itself: that is the same angle, stored as 0. NaN stays NaN (a run gone
+/// non-finite is reported, not hidden).
+fn wrap_angle(theta: f64) -> f64 {
+    let w = theta.rem_euclid(TAU);
+    if w == TAU { 0.0 } else { w }
+}
+
 /// The forms of the conduction state at index `k` (see [`circuit::state_index`]).
 fn form_at(circuit: &Circuit, k: usize) -> Form {
     let modes = circuit::state_at(k);
@@ -1610,6 +1619,49 @@ mod tests {
         }
         pl.refresh_start();
         pl
+    }
+
+    /// The plant restored from its own bytes, into one built from the same parameters.
+    fn restored(pl: &BldcPlant) -> Result<BldcPlant, String> {
+        use drive_core::state::Persist;
+        let mut copy = BldcPlant::new(pl.params.clone()).expect("valid parameters");
+        copy.restore_from(&pl.to_bytes()?)?;
+        Ok(copy)
+    }
+
+    #[test]
+    fn angles_are_wrapped_into_0_to_2pi_with_2pi_itself_as_0() {
+        assert_eq!(wrap_angle(-1e-300), 0.0);
+        assert_eq!(wrap_angle(-f64::MIN_POSITIVE), 0.0);
+        assert_eq!(wrap_angle(TAU), 0.0);
+        assert_eq!(wrap_angle(TAU + 1.0), 1.0);
+        assert_eq!(wrap_angle(-1.0), TAU - 1.0);
+        assert!(wrap_angle(f64::NAN).is_nan());
+    }
+
+    /// A rotor at rest nudged backwards by a tiny load: θ = 0 − tiny, which `rem_euclid`
+    /// rounds to 2π. The plant must save it as 0 and restore its own bytes.
+    #[test]
+    fn a_rotor_nudged_below_zero_saves_a_state_it_restores() {
+        for load in [1e-12, 1e-200, f64::MIN_POSITIVE, 5e-324] {
+            let mut pl = BldcPlant::new(PlantParams::default()).unwrap();
+            pl.set_load_torque(load);
+            let watch = Watch {
+                channels: Abc::splat(true),
+                reads: Abc::splat(Ticks::ZERO),
+                clock: Ticks(32),
+                horizon: Ticks::ZERO,
+            };
+            while pl.advance(Ticks(50), &watch) != PlantStop::Reached {}
+            let th = pl.x[THETA];
+            assert!((0.0..TAU).contains(&th), "load {load}: θ = {th}");
+            if let Err(e) = restored(&pl) {
+                panic!("load {load}: its own state refused: {e}");
+            }
+        }
+        let mut pl = BldcPlant::new(PlantParams::default()).unwrap();
+        pl.set_rotor(-1e-300, 0.0, false);
+        assert_eq!(pl.x[THETA], 0.0);
     }
 
     /// The back-EMF's rate from the state and its derivative (what bends the comparators'
