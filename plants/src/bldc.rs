@@ -1433,10 +1433,11 @@ impl BldcPlant {
             }
             let x0 = self.x;
             // The last step's end angle, unless the state moved since (a wrap of θ, a
-            // settled lookahead, a set rotor): a fresh sin_cos then re-anchors the chain of
-            // rotations, at least once a turn.
+            // settled lookahead, a set rotor) or the chain has run `ANCHOR` steps: a fresh
+            // sin_cos then re-anchors the chain of rotations, at least once a turn and once
+            // every `ANCHOR` steps however slowly the rotor turns.
             let b0 = match self.end_angle {
-                Some(e) if e.0 == x0[THETA] => e,
+                Some(e) if e.0 == x0[THETA] && self.stats.steps % ANCHOR != 0 => e,
                 _ => Self::base(&x0),
             };
             self.base_hint = b0;
@@ -1566,6 +1567,23 @@ struct StepResponse<'a> {
 /// for the network's solution (see [`Circuit::solve_planned`]).
 type Form = (Linearised, Option<Modal>, Plan);
 
+/// The most steps sin θ and cos θ are carried from step to step by rotations before a
+/// fresh `sin_cos` re-anchors them (see `BldcPlant::step_to`; committed steps are
+/// counted by `PlantStats::steps`, which a state saves, so a restored run re-anchors
+/// where the uninterrupted one does).
+///
+/// The bound: a step carries the pair by at most three rotations, two by Ω·h/2 (sin and
+/// cos by [`emf::rotation`]'s series, whose truncation for |d| <= 0.5 is below d¹³/13! <
+/// 2e-14; a larger d takes a fresh `sin_cos`) and one by the end's small δ
+/// ([`emf::sin_cos_close`], off by δ⁴/4 < 3e-17 in s² + c², or from the step's base).
+/// Each rotation is a 2×2 product whose roundings move s² + c² and the angle by a few ε
+/// (ε = 2^-53 ≈ 1.1e-16, say 8ε < 1e-15), so a step moves them by less than
+/// 3·(2e-14 + 1e-15) < 7e-14, and `ANCHOR` steps by less than 128 × 7e-14 < 9e-12: more
+/// than a hundred times inside the 1e-9 a restored state is held to (`bldc/state.rs`),
+/// for any run however long. (Observed at a crawl: under 6e-14 in 128 steps.)
+/// A power of two, so the test is a mask; a re-anchor costs one `sin_cos` in 128 steps.
+const ANCHOR: u64 = 128;
+
 /// θe wrapped into its canonical range 0..2π, as it is stored. `rem_euclid` of an
 /// angle a hair below 0 (a rotor at rest nudged backwards by a load of 1e-12 N·m) rounds
 /// to 2π itself: that is the same angle, stored as 0. NaN stays NaN (a run gone
@@ -1621,6 +1639,25 @@ mod tests {
         pl
     }
 
+    /// A plant with the bridge off and the rotor at `rpm` from θe = 0.3, locked to that
+    /// speed, stepped `n` plant steps of the longest length; `each` sees it after each.
+    fn crawl(params: PlantParams, rpm: f64, n: u64, mut each: impl FnMut(&BldcPlant)) -> BldcPlant {
+        let mut pl = BldcPlant::new(params).expect("valid parameters");
+        pl.set_rotor(0.3, rpm, true);
+        let watch = Watch {
+            channels: Abc::splat(false),
+            reads: Abc::splat(Ticks::ZERO),
+            clock: Ticks(32),
+            horizon: Ticks::ZERO,
+        };
+        let step = Ticks::from_seconds(pl.h_max).expect("a step in ticks").0;
+        for k in 1..=n {
+            while pl.advance(Ticks(k * step), &watch) != PlantStop::Reached {}
+            each(&pl);
+        }
+        pl
+    }
+
     /// The plant restored from its own bytes, into one built from the same parameters.
     fn restored(pl: &BldcPlant) -> Result<BldcPlant, String> {
         use drive_core::state::Persist;
@@ -1662,6 +1699,30 @@ mod tests {
         let mut pl = BldcPlant::new(PlantParams::default()).unwrap();
         pl.set_rotor(-1e-300, 0.0, false);
         assert_eq!(pl.x[THETA], 0.0);
+    }
+
+    /// At a crawl θ never wraps, so only the anchor every `ANCHOR` steps bounds the
+    /// rounding carried by the chain of rotations: s² + c² and the angle stay within the
+    /// bound derived at `ANCHOR`, and the plant's own state restores. (Unanchored, s² + c²
+    /// drifted by about 2e-16 a step: 4e-11 here, 1.1e-9 after 5.5 M steps, refused.)
+    #[test]
+    fn a_long_crawl_keeps_sin_and_cos_within_the_anchor_s_bound_and_restores() {
+        let bound = ANCHOR as f64 * 7e-14;
+        let mut worst = (0.0f64, 0.0f64);
+        let pl = crawl(PlantParams::default(), 0.01, 200_000, |pl| {
+            let (th, s, c) = pl.end_angle.expect("a step's end angle");
+            let (ws, wc) = th.sin_cos();
+            worst.0 = worst.0.max((s * s + c * c - 1.0).abs());
+            worst.1 = worst.1.max((s - ws).abs().max((c - wc).abs()));
+        });
+        assert!(pl.x[THETA] < TAU - 0.3, "θ never wrapped");
+        assert!(
+            worst.0 < bound && worst.1 < bound,
+            "s² + c² − 1 up to {:e}, sin and cos off by up to {:e} (bound {bound:e})",
+            worst.0,
+            worst.1
+        );
+        restored(&pl).unwrap();
     }
 
     /// The back-EMF's rate from the state and its derivative (what bends the comparators'
