@@ -221,6 +221,11 @@ impl Drive {
         texts: &[String],
         resources: Option<&Path>,
     ) -> Result<Drive, String> {
+        for (v, &x) in table().iter().zip(values) {
+            if let Role::Input(i) = v.role {
+                check_input(v.name, i, x)?;
+            }
+        }
         let cfg = config_of(values).map_err(|e| e.to_string())?;
         let engine = engine_of(&cfg, texts, resources)?;
         let mut d = Drive {
@@ -269,6 +274,11 @@ impl Drive {
             }
         }
         true
+    }
+
+    /// The value of `input` in force (as [`Drive::apply`] took it).
+    pub fn applied(&self, input: Input) -> f64 {
+        self.applied[slot(input)]
     }
 
     /// Runs the engine to master tick `end` (a communication point).

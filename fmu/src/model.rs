@@ -266,21 +266,7 @@ impl Model {
                 "`{}` is a fixed parameter: it can only be set before fmi2ExitInitializationMode (phase is {:?})",
                 v.name, self.phase
             )),
-            Role::Parameter { set, .. } => {
-                if v.min.is_some_and(|m| x < m) || v.max.is_some_and(|m| x > m) {
-                    let (lo, hi) = (
-                        v.min.unwrap_or(f64::NEG_INFINITY),
-                        v.max.unwrap_or(f64::INFINITY),
-                    );
-                    return err(format!(
-                        "`{}` = {x} (rule: within its declared range {lo}..={hi})",
-                        v.name
-                    ));
-                }
-                let mut scratch = bldc_drive::DriveConfig::default();
-                set(&mut scratch, x).map_err(|e| Fault::Error(e.to_string()))?;
-                Ok(None)
-            }
+            Role::Parameter { .. } => check_held(v, x).map(|()| None).map_err(Fault::Error),
             Role::Input(input) => {
                 if !(before_init || self.phase == Phase::StepComplete) {
                     return err(format!(
@@ -299,10 +285,16 @@ impl Model {
         }
     }
 
-    /// Applies a value [`Model::check_set`] accepted.
+    /// Applies a value [`Model::check_set`] accepted. The variable holds the value in
+    /// force: a speed command outside the chip's register is held clamped (what the
+    /// model uses, and what `fmi2GetReal` reads back), as the warning said.
     pub fn apply_set(&mut self, vr: u32, x: f64) {
         let Some(v) = by_vr(vr) else { return };
         let before_init = matches!(self.phase, Phase::Instantiated | Phase::InitializationMode);
+        let x = match v.role {
+            Role::Input(Input::SpeedRef) => clamp_speed(x),
+            _ => x,
+        };
         self.values[vr as usize] = x;
         match (v.role, self.drive.as_mut()) {
             (Role::Input(input), Some(d)) if !before_init => {
@@ -377,6 +369,12 @@ impl Model {
             ));
         }
         let end = tc + h;
+        if end == tc {
+            return err(format!(
+                "communicationStepSize = {h} at currentCommunicationPoint = {tc}: tc + h = tc in double precision (rule: a step advances time; at this time a step must be at least {})",
+                next_after(tc) - tc
+            ));
+        }
         if let Some(stop) = self.stop_time
             && end > stop + tol
         {
@@ -404,6 +402,69 @@ impl Model {
         }
         self.time = end;
         Ok(())
+    }
+}
+
+/// The next double above `t` (finite).
+fn next_after(t: f64) -> f64 {
+    if t == 0.0 {
+        f64::from_bits(1)
+    } else if t > 0.0 {
+        f64::from_bits(t.to_bits() + 1)
+    } else {
+        f64::from_bits(t.to_bits() - 1)
+    }
+}
+
+/// The rule a value that variable `v` holds obeys, whatever the phase: the one
+/// `fmi2Set*` applies when it is first set (for a speed command, once clamped), and the
+/// one every value restored from a serialized state passes. Finite; whole for Integer,
+/// enumeration and Boolean variables (0 or 1 for a Boolean); within the declared range;
+/// a parameter by the library's own rule, the load torque by the plant's; an output or a
+/// String variable holds no number (its slot is 0).
+pub fn check_held(v: &crate::variables::Variable, x: f64) -> Result<(), String> {
+    let name = v.name;
+    if !x.is_finite() {
+        return Err(format!("`{name}` = {x} (rule: must be finite)"));
+    }
+    if matches!(v.role, Role::Output(_) | Role::Text(_)) {
+        return if x == 0.0 {
+            Ok(())
+        } else {
+            Err(format!(
+                "`{name}` = {x} (rule: an output or String variable holds no number: 0)"
+            ))
+        };
+    }
+    match v.kind {
+        Kind::Boolean if x != 0.0 && x != 1.0 => {
+            return Err(format!("`{name}` = {x} (rule: a Boolean, 0 or 1)"));
+        }
+        Kind::Integer | Kind::Enumeration(_)
+            if x.fract() != 0.0 || x < f64::from(i32::MIN) || x > f64::from(i32::MAX) =>
+        {
+            return Err(format!(
+                "`{name}` = {x} (rule: a whole number within a C int)"
+            ));
+        }
+        _ => {}
+    }
+    if v.min.is_some_and(|m| x < m) || v.max.is_some_and(|m| x > m) {
+        let (lo, hi) = (
+            v.min.unwrap_or(f64::NEG_INFINITY),
+            v.max.unwrap_or(f64::INFINITY),
+        );
+        return Err(format!(
+            "`{name}` = {x} (rule: within its declared range {lo}..={hi})"
+        ));
+    }
+    match v.role {
+        Role::Parameter { set, .. } => {
+            let mut scratch = bldc_drive::DriveConfig::default();
+            set(&mut scratch, x).map_err(|e| e.to_string())
+        }
+        Role::Input(input) => check_input(name, input, x),
+        Role::Output(_) | Role::Text(_) => Ok(()),
     }
 }
 
@@ -502,6 +563,44 @@ mod tests {
         }
         assert_eq!(m.phase, Phase::StepComplete);
         m.do_step(0.0, 1e-3).unwrap();
+    }
+
+    #[test]
+    fn a_step_that_cannot_advance_time_is_refused_naming_the_rule() {
+        let mut m = Model::new();
+        m.setup_experiment(1e15, None).unwrap();
+        m.enter_initialization().unwrap();
+        m.exit_initialization().unwrap();
+        let Err(Fault::Error(msg)) = m.do_step(1e15, 1e-3) else {
+            panic!("a step that does not advance time was accepted")
+        };
+        assert!(
+            msg.contains("1000000000000000") && msg.contains("rule: a step advances time"),
+            "{msg}"
+        );
+        assert_eq!(m.time, 1e15);
+        m.do_step(1e15, 0.125).unwrap();
+    }
+
+    #[test]
+    fn a_clamped_speed_command_reads_back_as_the_command_in_force() {
+        let mut m = initialized();
+        let speed = vr("speed_ref_rpm");
+        assert!(matches!(
+            m.set(Access::Real, speed, 20_000.0),
+            Err(Fault::Warning(_))
+        ));
+        assert_eq!(get1(&mut m, "speed_ref_rpm"), 16_383.0);
+        assert_eq!(
+            m.drive.as_ref().unwrap().applied(Input::SpeedRef),
+            16_383.0,
+            "the value held is the one in force"
+        );
+        m.set(Access::Real, speed, -5.0).unwrap_err();
+        assert_eq!(get1(&mut m, "speed_ref_rpm"), 0.0);
+        // A state then restores (the value held passes the rule on restore).
+        let bytes = crate::state::serialize(&m).unwrap();
+        crate::state::deserialize(&bytes, None).unwrap();
     }
 
     #[test]

@@ -11,7 +11,8 @@
 //! signature: bytes made on purpose with a matching hash are checked value by value.
 
 use crate::drive::{Drive, portable_texts};
-use crate::model::{Model, Phase};
+use crate::model::{Model, Phase, check_held};
+use crate::variables::{Role, table};
 use crate::xml::guid;
 use bldc_drive::drive_core::state::{Persist, Reader, Writer, named};
 use std::path::Path;
@@ -23,7 +24,10 @@ use std::path::Path;
 //    records hold the ringing envelope at the step's first tick, not at its start.
 // 6: the comparator records keep their filters' responses without the time constants
 //    (the parameters') and a floating leg's bend as its cubic and transient alone.
-const MAGIC: &[u8; 8] = b"BLDCFMU6";
+// 7: the current sense's pipeline at its size fixed by the parameters (not padded to
+//    64 and grown past it); values held are checked as when set (a speed command is
+//    held clamped).
+const MAGIC: &[u8; 8] = b"BLDCFMU7";
 const HEADER: usize = 8 + 8 + 8;
 
 /// FNV-1a, 64 bit (offset basis 0xcbf29ce484222325, prime 0x100000001b3). Each byte
@@ -124,6 +128,8 @@ pub fn deserialize(bytes: &[u8], resources: Option<&Path>) -> Result<Model, Stri
     if values.len() != n || texts.len() != n {
         return Err("state has the wrong number of variables".into());
     }
+    check_values("values", &values, &texts)?;
+    check_times(start_time, stop, time)?;
     let drive = match r.u8()? {
         0 => None,
         1 => {
@@ -132,10 +138,20 @@ pub fn deserialize(bytes: &[u8], resources: Option<&Path>) -> Result<Model, Stri
             if built_from.len() != n || built_texts.len() != n {
                 return Err("state has the wrong number of variables".into());
             }
+            check_values("built_from", &built_from, &built_texts)?;
+            check_built_from(&values, &texts, &built_from, &built_texts)?;
             let dynamic = r.bytes()?;
             let mut d = Drive::new(&built_from, &built_texts, resources)?;
             d.restore_from(dynamic)
                 .map_err(|e| format!("drive state: {}", named("drive", &e)))?;
+            check_applied(&values, &d)?;
+            // The outputs are not stored: they are computed from the restored dynamic
+            // state, by the rule a step's end is held to (every output finite).
+            if let Some((name, x)) = d.non_finite_output() {
+                return Err(format!(
+                    "the restored drive gives output `{name}` = {x} (rule: every output finite, as at the end of a step)"
+                ));
+            }
             // After a failed step the engine stopped somewhere past the last good point.
             if phase != Phase::Error {
                 check_clock(start_time, time, d.engine.now().0)?;
@@ -144,6 +160,9 @@ pub fn deserialize(bytes: &[u8], resources: Option<&Path>) -> Result<Model, Stri
         }
         t => return Err(format!("unknown drive tag {t}")),
     };
+    if drive.is_none() {
+        check_unbuilt(phase, start_time, time)?;
+    }
     if !r.rest().is_empty() {
         return Err(format!("{} trailing bytes", r.rest().len()));
     }
@@ -157,6 +176,100 @@ pub fn deserialize(bytes: &[u8], resources: Option<&Path>) -> Result<Model, Stri
         time,
         drive,
     })
+}
+
+/// Every value held passes the rule it passed when it was set ([`check_held`]); String
+/// slots of variables that are not Strings are empty.
+fn check_values(what: &str, values: &[f64], texts: &[String]) -> Result<(), String> {
+    for ((v, &x), t) in table().iter().zip(values).zip(texts) {
+        check_held(v, x).map_err(|e| format!("{what}: {e}"))?;
+        if !matches!(v.role, Role::Text(_)) && !t.is_empty() {
+            return Err(format!(
+                "{what}: `{}` holds the text `{t}` (rule: only a String variable holds one)",
+                v.name
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// The start, stop and present times: finite, the stop (NaN for none) not before the
+/// start, the present not before the start.
+fn check_times(start: f64, stop: f64, time: f64) -> Result<(), String> {
+    if !start.is_finite() {
+        return Err(format!("start time = {start} (rule: must be finite)"));
+    }
+    if !(stop.is_nan() || (stop.is_finite() && stop >= start)) {
+        return Err(format!(
+            "stop time = {stop} (rule: none, or finite and >= the start time {start})"
+        ));
+    }
+    // No step ends past the stop time (fmi2DoStep's rule, with its half-tick tolerance).
+    let tol = 0.5 * bldc_drive::drive_core::TICK_S;
+    if !(time.is_finite() && time >= start && (stop.is_nan() || time <= stop + tol)) {
+        return Err(format!(
+            "time = {time} (rule: finite, from the start time {start} to the stop time {stop})"
+        ));
+    }
+    Ok(())
+}
+
+/// Without a drive no step has been taken: the phase is one before initialization ends
+/// (or the error state), and the time is the start time.
+fn check_unbuilt(phase: Phase, start: f64, time: f64) -> Result<(), String> {
+    if matches!(phase, Phase::StepComplete | Phase::Terminated) {
+        return Err(format!(
+            "phase {phase:?} without a drive (rule: the drive is built at fmi2ExitInitializationMode)"
+        ));
+    }
+    if time != start {
+        return Err(format!(
+            "time = {time} without a drive (rule: no step taken, the start time {start})"
+        ));
+    }
+    Ok(())
+}
+
+/// The drive was built from the parameters the variables hold: they are fixed once it is
+/// (setting one before initialization ends drops the drive), and so are the Strings.
+fn check_built_from(
+    values: &[f64],
+    texts: &[String],
+    built_from: &[f64],
+    built_texts: &[String],
+) -> Result<(), String> {
+    for (k, v) in table().iter().enumerate() {
+        let same = match v.role {
+            Role::Parameter { .. } => values[k] == built_from[k],
+            Role::Text(_) => texts[k] == built_texts[k],
+            _ => true,
+        };
+        if !same {
+            return Err(format!(
+                "built_from: `{}` = {}, but the variable holds {} (rule: the drive is built from the parameters held, fixed once it is)",
+                v.name, built_from[k], values[k]
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// The inputs in force in the drive are the values the variables hold (each set is
+/// applied at once after initialization, and drops the drive before).
+fn check_applied(values: &[f64], d: &Drive) -> Result<(), String> {
+    for (k, v) in table().iter().enumerate() {
+        if let Role::Input(i) = v.role
+            && d.applied(i) != values[k]
+        {
+            return Err(format!(
+                "drive.applied `{}` = {}, but the variable holds {} (rule: the input in force is the value set)",
+                v.name,
+                d.applied(i),
+                values[k]
+            ));
+        }
+    }
+    Ok(())
 }
 
 /// The master's time and the engine's clock must describe the same instant (the engine
@@ -317,11 +430,11 @@ mod tests {
         assert!(deserialize(b"nonsense", None).is_err());
         assert!(deserialize(b"", None).is_err());
         let mut old = bytes.clone();
-        old[7] = b'5'; // a state of the previous format (BLDCFMU5)
+        old[7] = b'6'; // a state of the previous format (BLDCFMU6)
         let Err(e) = deserialize(&old, None) else {
             panic!("an old-format state was accepted")
         };
-        assert!(e.contains("bad magic") && e.contains("BLDCFMU6"), "{e}");
+        assert!(e.contains("bad magic") && e.contains("BLDCFMU7"), "{e}");
     }
 
     /// The header's hash recomputed after the payload was edited, as bytes made on purpose

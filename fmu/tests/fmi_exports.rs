@@ -185,11 +185,19 @@ fn a_state_belongs_to_the_instance_that_made_it() {
     let a = initialized("owner-a");
     let b = initialized("owner-b");
     let mut s = get_state(a);
+    let bytes = serialized(a, s);
     // SAFETY: the pointer is checked against b's states before use.
     unsafe {
         assert_eq!(fmi2SetFMUstate(b, s), ERROR);
         assert_eq!(fmi2FreeFMUstate(b, &mut s), ERROR);
         assert!(!s.is_null());
+        // Neither NULL nor one of b's states: refused to overwrite, by both calls.
+        let mut foreign = s;
+        assert_eq!(fmi2GetFMUstate(b, &mut foreign), ERROR);
+        assert_eq!(foreign, s);
+        let st = fmi2DeSerializeFMUstate(b, bytes.as_ptr().cast(), bytes.len(), &mut foreign);
+        assert_eq!(st, ERROR);
+        assert_eq!(foreign, s, "a's state untouched");
     }
     fmi2FreeInstance(a);
     // Freed with its instance: no longer accepted anywhere.

@@ -1,11 +1,15 @@
 //! Random FMI call sequences against the exported functions: out-of-order calls, extreme
-//! and non-finite values, unknown value references, damaged serialized states, stale state
-//! pointers. Fixed seed, so a failure repeats; `FMU_FUZZ_CASES` runs more sequences
+//! and non-finite values, unknown value references, damaged serialized states, forged ones
+//! (a value from the edges or a wrong code written over any field, the checksum resealed),
+//! states taken after short steps at loads from the edges (sub-normal ones too), stale
+//! state pointers. Fixed seed, so a failure repeats; `FMU_FUZZ_CASES` runs more sequences
 //! (default 10 000, about ten seconds) and `FMU_FUZZ_SEED` another seed.
 //!
 //! Checked after every call: no panic was caught inside the FMU (each would be a bug the
 //! importer only sees as fmi2Error), a step that returned OK left every output finite, a
-//! damaged state was refused, and at the end every state was freed with its instance.
+//! damaged state was refused, a forged one accepted reads back every variable finite and
+//! within its declared bounds, a state the FMU serialized restores, and at the end every
+//! state was freed with its instance.
 // Calls the exported C functions as an importer does; every unsafe block says why it holds.
 #![allow(unsafe_code)]
 
@@ -25,7 +29,7 @@ use std::ffi::c_void;
 use std::ptr;
 
 mod instance;
-use instance::instantiate;
+use instance::{HEADER, instantiate, read_back, reseal};
 
 /// xorshift64*: small, and the same sequence on every platform.
 struct Rng(u64);
@@ -73,6 +77,37 @@ fn outputs() -> Vec<u32> {
         .collect()
 }
 
+/// A state's bytes forged on purpose and resealed: a value from the edges (NaN, ±inf,
+/// huge, an out-of-bound load, a random bit pattern) over 8 bytes, or a wrong code over
+/// one, at a random offset of the payload.
+fn forge(rng: &mut Rng, b: &mut [u8]) {
+    if b.len() < HEADER + 8 {
+        return;
+    }
+    let at = HEADER + rng.below(b.len() - HEADER - 7);
+    if rng.below(4) == 0 {
+        b[at] = [2, 9, 255, 0x80][rng.below(4)];
+    } else {
+        let x = [
+            f64::NAN,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            1e300,
+            -1e300,
+            5.0,
+            -2.0,
+            0.5,
+        ][rng.below(8)];
+        let bits = if rng.below(8) == 0 {
+            rng.next()
+        } else {
+            x.to_bits()
+        };
+        b[at..at + 8].copy_from_slice(&bits.to_le_bytes());
+    }
+    reseal(b);
+}
+
 /// One sequence on a fresh instance; returns how many calls it made.
 fn sequence(rng: &mut Rng, calls: usize) -> usize {
     let outs = outputs();
@@ -87,7 +122,7 @@ fn sequence(rng: &mut Rng, calls: usize) -> usize {
         let mut freed: Vec<*mut c_void> = Vec::new();
         for call in 0..calls {
             let panics = caught_panics();
-            let what = rng.below(16);
+            let what = rng.below(18);
             match what {
                 0 => {
                     fmi2SetupExperiment(c, 0, 0.0, 0.0, 0, 0.0);
@@ -198,7 +233,7 @@ fn sequence(rng: &mut Rng, calls: usize) -> usize {
                     assert_eq!(fmi2SerializedFMUstateSize(c, s, &mut n), OK);
                     let mut b = vec![0u8; n];
                     assert_eq!(fmi2SerializeFMUstate(c, s, b.as_mut_ptr().cast(), n), OK);
-                    let damage = rng.below(4);
+                    let damage = rng.below(6);
                     match damage {
                         0 => {}
                         1 => {
@@ -206,14 +241,28 @@ fn sequence(rng: &mut Rng, calls: usize) -> usize {
                             b[i] ^= 1 << rng.below(8);
                         }
                         2 => b.truncate(rng.below(n)),
-                        _ => {
+                        3 => {
                             let i = rng.below(n);
                             b[i] = b[i].wrapping_add(1 + rng.below(255) as u8);
                         }
+                        _ => forge(rng, &mut b),
                     }
                     let mut copy = ptr::null_mut();
                     let st = fmi2DeSerializeFMUstate(c, b.as_ptr().cast(), b.len(), &mut copy);
-                    if damage == 0 {
+                    if damage >= 4 {
+                        // Forged and resealed: refused, or within every rule once set.
+                        if st == OK {
+                            freed.retain(|&f| f != copy);
+                            states.push(copy);
+                            assert_eq!(fmi2SetFMUstate(c, copy), OK);
+                            if let Err(e) = read_back(c) {
+                                panic!("call {call}: a forged state was accepted: {e}");
+                            }
+                            t = f64::NAN;
+                        } else {
+                            assert_eq!(st, ERROR, "call {call}");
+                        }
+                    } else if damage == 0 {
                         assert_eq!(
                             st,
                             OK,
@@ -224,6 +273,52 @@ fn sequence(rng: &mut Rng, calls: usize) -> usize {
                         states.push(copy);
                     } else {
                         assert_eq!(st, ERROR, "call {call}: a damaged state was accepted");
+                    }
+                }
+                16 | 17 => {
+                    // A load from the edges, sub-normal ones included, a short step, and
+                    // the state then: the FMU restores what it serialized itself.
+                    let load = [
+                        5e-324,
+                        -5e-324,
+                        f64::MIN_POSITIVE,
+                        1e-300,
+                        1e-12,
+                        -1e-12,
+                        0.0,
+                    ][rng.below(7)];
+                    let load = if rng.below(3) == 0 {
+                        load * rng.unit()
+                    } else {
+                        load
+                    };
+                    let vr = fmu::variables::vr_of("load_torque_nm").unwrap();
+                    fmi2SetReal(c, &vr, 1, &load);
+                    let h = [1e-6, 7e-9, 1e-4][rng.below(3)];
+                    let stepped = fmi2DoStep(c, t, h, 1);
+                    if stepped == OK {
+                        t += h;
+                    }
+                    let mut s = ptr::null_mut();
+                    if fmi2GetFMUstate(c, &mut s) == OK {
+                        let mut n = 0;
+                        // A drive left non-finite by a failed step cannot be serialized;
+                        // one that just stepped must be.
+                        let sized = fmi2SerializedFMUstateSize(c, s, &mut n);
+                        assert!(
+                            sized == OK || stepped != OK,
+                            "call {call}: load {load}: a state after a good step is not serialized"
+                        );
+                        if sized != OK {
+                            assert_eq!(fmi2FreeFMUstate(c, &mut s), OK);
+                            continue;
+                        }
+                        let mut b = vec![0u8; n];
+                        assert_eq!(fmi2SerializeFMUstate(c, s, b.as_mut_ptr().cast(), n), OK);
+                        if let Err(e) = fmu::state::deserialize(&b, None) {
+                            panic!("call {call}: load {load}: its own state refused: {e}");
+                        }
+                        assert_eq!(fmi2FreeFMUstate(c, &mut s), OK);
                     }
                 }
                 14 => {

@@ -352,7 +352,7 @@ impl BldcPlant {
     /// toggle history and work counters restart from zero.
     pub fn set_rotor(&mut self, theta_e: f64, speed_rpm: f64, lock: bool) {
         self.settle();
-        self.x[THETA] = theta_e.rem_euclid(TAU);
+        self.x[THETA] = wrap_angle(theta_e);
         self.x[OMEGA] = speed_rpm * TAU / 60.0;
         self.speed_lock = lock;
         self.refresh_start();
@@ -552,7 +552,10 @@ impl BldcPlant {
     }
 
     /// [`BldcPlant::integrate_from`], with an angle near the end's with its sine and cosine:
-    /// the modal response's own angle there (see [`BldcPlant::flow_with`]), else `base`.
+    /// the modal response's own angle there (see [`BldcPlant::flow_with`]), else the end's
+    /// own angle, rotated to from `base` by the full series of [`emf::sin_cos_near`] (so
+    /// that [`emf::sin_cos_close`] takes it as it is, not by its second-order rotation
+    /// from the step's start).
     fn integrate_end(
         &self,
         x: &State,
@@ -563,7 +566,11 @@ impl BldcPlant {
         let (lin, md, _) = self.form();
         match md {
             Some(md) if self.modal => self.flow_from(md, lin, x, h, base, k1),
-            _ => (self.rk4_from(x, h, base, k1), base),
+            _ => {
+                let x1 = self.rk4_from(x, h, base, k1);
+                let (s, c) = emf::sin_cos_near(x1[THETA], base);
+                (x1, (x1[THETA], s, c))
+            }
         }
     }
 
@@ -1188,7 +1195,7 @@ impl BldcPlant {
         self.t = t;
         self.tick = Ticks::at_or_after(t);
         if !(0.0..TAU).contains(&self.x[THETA]) {
-            self.x[THETA] = self.x[THETA].rem_euclid(TAU);
+            self.x[THETA] = wrap_angle(self.x[THETA]);
         }
         self.stats.steps += 1;
     }
@@ -1280,7 +1287,7 @@ impl BldcPlant {
             Some(la) => {
                 let mut x = self.integrate_from(&la.x0, self.t - la.t0, la.base, &la.f0);
                 if !(0.0..TAU).contains(&x[THETA]) {
-                    x[THETA] = x[THETA].rem_euclid(TAU);
+                    x[THETA] = wrap_angle(x[THETA]);
                 }
                 x
             }
@@ -1433,10 +1440,11 @@ impl BldcPlant {
             }
             let x0 = self.x;
             // The last step's end angle, unless the state moved since (a wrap of θ, a
-            // settled lookahead, a set rotor): a fresh sin_cos then re-anchors the chain of
-            // rotations, at least once a turn.
+            // settled lookahead, a set rotor) or the chain has run `ANCHOR` steps: a fresh
+            // sin_cos then re-anchors the chain of rotations, at least once a turn and once
+            // every `ANCHOR` steps however slowly the rotor turns.
             let b0 = match self.end_angle {
-                Some(e) if e.0 == x0[THETA] => e,
+                Some(e) if e.0 == x0[THETA] && self.stats.steps % ANCHOR != 0 => e,
                 _ => Self::base(&x0),
             };
             self.base_hint = b0;
@@ -1566,6 +1574,32 @@ struct StepResponse<'a> {
 /// for the network's solution (see [`Circuit::solve_planned`]).
 type Form = (Linearised, Option<Modal>, Plan);
 
+/// The most steps sin θ and cos θ are carried from step to step by rotations before a
+/// fresh `sin_cos` re-anchors them (see `BldcPlant::step_to`; committed steps are
+/// counted by `PlantStats::steps`, which a state saves, so a restored run re-anchors
+/// where the uninterrupted one does).
+///
+/// The bound: a step carries the pair by at most three rotations, two by Ω·h/2 (sin and
+/// cos by [`emf::rotation`]'s series, whose truncation for |d| <= 0.5 is below d¹³/13! <
+/// 2e-14; a larger d takes a fresh `sin_cos`) and one by the end's small δ
+/// ([`emf::sin_cos_close`], off by δ⁴/4 < 3e-17 in s² + c², or from the step's base).
+/// Each rotation is a 2×2 product whose roundings move s² + c² and the angle by a few ε
+/// (ε = 2^-53 ≈ 1.1e-16, say 8ε < 1e-15), so a step moves them by less than
+/// 3·(2e-14 + 1e-15) < 7e-14, and `ANCHOR` steps by less than 128 × 7e-14 < 9e-12: more
+/// than a hundred times inside the 1e-9 a restored state is held to (`bldc/state.rs`),
+/// for any run however long. (Observed at a crawl: under 6e-14 in 128 steps.)
+/// A power of two, so the test is a mask; a re-anchor costs one `sin_cos` in 128 steps.
+const ANCHOR: u64 = 128;
+
+/// θe wrapped into its canonical range 0..2π, as it is stored. `rem_euclid` of an
+/// angle a hair below 0 (a rotor at rest nudged backwards by a load of 1e-12 N·m) rounds
+/// to 2π itself: that is the same angle, stored as 0. NaN stays NaN (a run gone
+/// non-finite is reported, not hidden).
+fn wrap_angle(theta: f64) -> f64 {
+    let w = theta.rem_euclid(TAU);
+    if w == TAU { 0.0 } else { w }
+}
+
 /// The forms of the conduction state at index `k` (see [`circuit::state_index`]).
 fn form_at(circuit: &Circuit, k: usize) -> Form {
     let modes = circuit::state_at(k);
@@ -1610,6 +1644,119 @@ mod tests {
         }
         pl.refresh_start();
         pl
+    }
+
+    /// A plant with the bridge off and the rotor at `rpm` from θe = 0.3, locked to that
+    /// speed, stepped `n` plant steps of the longest length; `each` sees it after each.
+    fn crawl(params: PlantParams, rpm: f64, n: u64, mut each: impl FnMut(&BldcPlant)) -> BldcPlant {
+        let mut pl = BldcPlant::new(params).expect("valid parameters");
+        pl.set_rotor(0.3, rpm, true);
+        let watch = Watch {
+            channels: Abc::splat(false),
+            reads: Abc::splat(Ticks::ZERO),
+            clock: Ticks(32),
+            horizon: Ticks::ZERO,
+        };
+        let step = Ticks::from_seconds(pl.h_max).expect("a step in ticks").0;
+        for k in 1..=n {
+            while pl.advance(Ticks(k * step), &watch) != PlantStop::Reached {}
+            each(&pl);
+        }
+        pl
+    }
+
+    /// The plant restored from its own bytes, into one built from the same parameters.
+    fn restored(pl: &BldcPlant) -> Result<BldcPlant, String> {
+        use drive_core::state::Persist;
+        let mut copy = BldcPlant::new(pl.params.clone()).expect("valid parameters");
+        copy.restore_from(&pl.to_bytes()?)?;
+        Ok(copy)
+    }
+
+    #[test]
+    fn angles_are_wrapped_into_0_to_2pi_with_2pi_itself_as_0() {
+        assert_eq!(wrap_angle(-1e-300), 0.0);
+        assert_eq!(wrap_angle(-f64::MIN_POSITIVE), 0.0);
+        assert_eq!(wrap_angle(TAU), 0.0);
+        assert_eq!(wrap_angle(TAU + 1.0), 1.0);
+        assert_eq!(wrap_angle(-1.0), TAU - 1.0);
+        assert!(wrap_angle(f64::NAN).is_nan());
+    }
+
+    /// A rotor at rest nudged backwards by a tiny load: θ = 0 − tiny, which `rem_euclid`
+    /// rounds to 2π. The plant must save it as 0 and restore its own bytes.
+    #[test]
+    fn a_rotor_nudged_below_zero_saves_a_state_it_restores() {
+        for load in [1e-12, 1e-200, f64::MIN_POSITIVE, 5e-324] {
+            let mut pl = BldcPlant::new(PlantParams::default()).unwrap();
+            pl.set_load_torque(load);
+            let watch = Watch {
+                channels: Abc::splat(true),
+                reads: Abc::splat(Ticks::ZERO),
+                clock: Ticks(32),
+                horizon: Ticks::ZERO,
+            };
+            while pl.advance(Ticks(50), &watch) != PlantStop::Reached {}
+            let th = pl.x[THETA];
+            assert!((0.0..TAU).contains(&th), "load {load}: θ = {th}");
+            if let Err(e) = restored(&pl) {
+                panic!("load {load}: its own state refused: {e}");
+            }
+        }
+        let mut pl = BldcPlant::new(PlantParams::default()).unwrap();
+        pl.set_rotor(-1e-300, 0.0, false);
+        assert_eq!(pl.x[THETA], 0.0);
+    }
+
+    /// At a crawl θ never wraps, so only the anchor every `ANCHOR` steps bounds the
+    /// rounding carried by the chain of rotations: s² + c² and the angle stay within the
+    /// bound derived at `ANCHOR`, and the plant's own state restores. (Unanchored, s² + c²
+    /// drifted by about 2e-16 a step: 4e-11 here, 1.1e-9 after 5.5 M steps, refused.)
+    #[test]
+    fn a_long_crawl_keeps_sin_and_cos_within_the_anchor_s_bound_and_restores() {
+        let bound = ANCHOR as f64 * 7e-14;
+        let mut worst = (0.0f64, 0.0f64);
+        let pl = crawl(PlantParams::default(), 0.01, 200_000, |pl| {
+            let (th, s, c) = pl.end_angle.expect("a step's end angle");
+            let (ws, wc) = th.sin_cos();
+            worst.0 = worst.0.max((s * s + c * c - 1.0).abs());
+            worst.1 = worst.1.max((s - ws).abs().max((c - wc).abs()));
+        });
+        assert!(pl.x[THETA] < TAU - 0.3, "θ never wrapped");
+        assert!(
+            worst.0 < bound && worst.1 < bound,
+            "s² + c² − 1 up to {:e}, sin and cos off by up to {:e} (bound {bound:e})",
+            worst.0,
+            worst.1
+        );
+        restored(&pl).unwrap();
+    }
+
+    /// The RK4 path (no modal form: a trapezoidal back-EMF) gives the step's end its own
+    /// sine and cosine: at 9e-5 rad a step, a second-order rotation from the step's start
+    /// would be off by d³/6 ≈ 1.2e-13 at every step; the series is within a few ε a step,
+    /// so over `ANCHOR` steps well within 5e-14 of a fresh sin_cos.
+    #[test]
+    fn the_rk4_step_s_end_angle_follows_a_fresh_sin_cos_over_a_long_crawl() {
+        let mut params = PlantParams::default();
+        params.motor.back_emf = BackEmfShape::Trapezoidal {
+            flat_top_deg: 120.0,
+        };
+        let d = 9e-5;
+        let rpm = d / params.solver.max_step_s / params.motor.pole_pairs() * 60.0 / TAU;
+        let mut worst = 0.0f64;
+        let mut steps = 0;
+        crawl(params, rpm, 100_000, |pl| {
+            assert!(pl.form().1.is_none() || !pl.modal, "the RK4 path");
+            let (th, s, c) = pl.end_angle.expect("a step's end angle");
+            let (ws, wc) = th.sin_cos();
+            worst = worst.max((s - ws).abs().max((c - wc).abs()));
+            steps += 1;
+        });
+        assert!(
+            worst < 5e-14,
+            "sin and cos off by up to {worst:e} over {steps} steps"
+        );
     }
 
     /// The back-EMF's rate from the state and its derivative (what bends the comparators'

@@ -19,6 +19,9 @@ unsafe fn snapshot<'a>(s: FmuState) -> &'a mut Snapshot {
     unsafe { &mut *s.cast::<Snapshot>() }
 }
 
+/// Why `fmi2GetFMUstate` and `fmi2DeSerializeFMUstate` refuse the `*FMUstate` given.
+const FOREIGN: &str = "*FMUstate is neither NULL nor a live state of this instance (rule: NULL for a new state, or one from fmi2GetFMUstate or fmi2DeSerializeFMUstate on this instance, not yet freed, to overwrite)";
+
 fn state_error(inst: &Instance, call: &str, msg: String) -> Status {
     inst.report(call, Err(Fault::Error(msg)))
 }
@@ -47,11 +50,7 @@ pub unsafe extern "C" fn fmi2GetFMUstate(c: Component, state: *mut FmuState) -> 
                 // SAFETY: live.
                 unsafe { snapshot(old) }.model = model;
             } else if !old.is_null() {
-                return state_error(
-                    inst,
-                    CALL,
-                    "*FMUstate is neither NULL nor a live state of this instance".into(),
-                );
+                return state_error(inst, CALL, FOREIGN.into());
             } else {
                 let p = Box::into_raw(Box::new(Snapshot { model })).cast::<c_void>();
                 register(Handle::State, p, c);
@@ -222,14 +221,17 @@ pub unsafe extern "C" fn fmi2DeSerializeFMUstate(
             if state.is_null() || (bytes.is_null() && size > 0) {
                 return null_error(inst, CALL, "serializedState or FMUstate");
             }
+            // SAFETY: non-null, readable per the FMI contract.
+            let old = unsafe { *state };
+            if !old.is_null() && !is_state_of(old, c) {
+                return state_error(inst, CALL, FOREIGN.into());
+            }
             // SAFETY: non-null when size > 0; `size` bytes per the FMI contract.
             let data = unsafe { slice(bytes.cast::<u8>(), size) };
             let model = match deserialize(data, inst.model.resources.as_deref()) {
                 Ok(m) => m,
                 Err(e) => return state_error(inst, CALL, format!("bad serialized state: {e}")),
             };
-            // SAFETY: non-null, readable.
-            let old = unsafe { *state };
             if is_state_of(old, c) {
                 // SAFETY: live.
                 unsafe { snapshot(old) }.model = model;

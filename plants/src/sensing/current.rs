@@ -601,7 +601,7 @@ mod tests {
             }
             let mut w = Writer::new();
             c.y.save(&mut w);
-            results.save(&mut w);
+            c.save_results(&results, &mut w);
             (c.next_n * c.conv).save(&mut w);
             let u = &c.updates[c.newest % UPDATES];
             (u.pieces, u.t0).save(&mut w);

@@ -168,6 +168,20 @@ impl ComparatorBank {
                 )
             })?;
         }
+        for (j, h) in self.front.hist.iter().enumerate() {
+            // Toggles as the scans push them: one a tick at most, each to the other state
+            // (the first from the base), none past the step integrated ahead.
+            let mut last = (None::<u64>, h.base);
+            for (k, &(tick, state)) in h.toggles.iter().enumerate() {
+                let ok = last.0.is_none_or(|t| t < tick) && state != last.1 && tick <= late;
+                check(ok, || {
+                    format!(
+                        "cmp.hist[{j}].toggles[{k}] = ({tick}, {state}) (rule: after the one before, to the other state, by tick {late})"
+                    )
+                })?;
+                last = (Some(tick), state);
+            }
+        }
         let ring = &self.front.ring;
         check(ring.k <= late, || {
             format!("cmp.ring.k = {} (rule: excited by tick {late})", ring.k)

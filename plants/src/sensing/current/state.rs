@@ -38,7 +38,7 @@ impl Persist for Pieces {
 impl Persist for CurrentSense {
     fn save(&self, w: &mut Writer) {
         self.y.save(w);
-        self.conversions().save(w);
+        self.save_results(&self.conversions(), w);
         (self.next_n * self.conv).save(w);
         let u = &self.updates[self.newest % UPDATES];
         (u.pieces, u.t0).save(w);
@@ -48,8 +48,7 @@ impl Persist for CurrentSense {
         // The sample last read is not the restored state's (even when this fails midway).
         self.read.set(super::NO_READ);
         r.field("y", &mut self.y)?;
-        let mut results = VecDeque::<(u64, u16)>::new();
-        r.field("results", &mut results)?;
+        let results = self.restore_results(r)?;
         let mut next_sample = 0u64;
         r.field("next_sample", &mut next_sample)?;
         let u = &mut self.updates[self.newest % UPDATES];
@@ -62,6 +61,37 @@ impl Persist for CurrentSense {
 }
 
 impl CurrentSense {
+    /// Writes the pipeline `results` at its size, `keep` slots (fixed by the parameters:
+    /// a step's conversions and four), however many it holds: a state's size does not
+    /// change with the steps taken.
+    pub(super) fn save_results(&self, results: &VecDeque<(u64, u16)>, w: &mut Writer) {
+        w.u64(results.len() as u64);
+        results.iter().for_each(|x| x.save(w));
+        for _ in results.len()..self.keep {
+            <(u64, u16)>::default().save(w);
+        }
+    }
+
+    /// The pipeline as [`CurrentSense::save_results`] writes it: a count up to `keep`, then
+    /// `keep` slots, the first `count` of them held.
+    fn restore_results(&self, r: &mut Reader) -> Result<VecDeque<(u64, u16)>, String> {
+        let mut n = 0u64;
+        r.field("results.len", &mut n)?;
+        let keep = self.keep;
+        check(n <= keep as u64, || {
+            format!("results.len = {n} (rule: at most its pipeline's size, {keep})")
+        })?;
+        let mut results = VecDeque::with_capacity(keep);
+        for k in 0..keep {
+            let mut x = <(u64, u16)>::default();
+            r.field(&format!("results[{k}]"), &mut x)?;
+            if (k as u64) < n {
+                results.push_back(x);
+            }
+        }
+        Ok(results)
+    }
+
     /// The conversions held, (readable from tick, code), oldest first.
     pub(super) fn conversions(&self) -> VecDeque<(u64, u16)> {
         (self.next_n - self.held as u64..self.next_n)

@@ -1,0 +1,305 @@
+//! Serialized states forged on purpose: a value written over the bytes of a valid state at
+//! every offset, the length and FNV-1a 64 resealed, so that only the rules can refuse it.
+//! Whatever is accepted reads back finite and within its declared bounds, and steps on
+//! with finite outputs; a state the FMU saved itself always restores; and the size of a
+//! state is fixed by the parameters, whatever the steps taken.
+// Calls the exported C functions as an importer does; every unsafe block says why it holds.
+#![allow(unsafe_code)]
+
+use fmu::exports::states::{
+    fmi2DeSerializeFMUstate, fmi2FreeFMUstate, fmi2GetFMUstate, fmi2SerializeFMUstate,
+    fmi2SerializedFMUstateSize, fmi2SetFMUstate,
+};
+use fmu::exports::steps::{fmi2DoStep, fmi2GetRealStatus};
+use fmu::exports::values::fmi2SetReal;
+use fmu::exports::{
+    fmi2EnterInitializationMode, fmi2ExitInitializationMode, fmi2FreeInstance, fmi2SetupExperiment,
+};
+use fmu::ffi::{OK, caught_panics, live_states};
+use fmu::variables::{Kind, Role, table, vr_of};
+use std::ffi::c_void;
+use std::ptr;
+
+mod instance;
+use instance::{HEADER, instantiate, read_back, reseal};
+
+/// An instance set up with `params` (by name), initialized unless `init` is false.
+fn instance_with(params: &[(&str, f64)], init: bool) -> *mut c_void {
+    let c = instantiate("forgery");
+    // SAFETY: a live instance; arrays of the stated length.
+    unsafe {
+        assert_eq!(fmi2SetupExperiment(c, 0, 0.0, 0.0, 0, 0.0), OK);
+        assert_eq!(fmi2EnterInitializationMode(c), OK);
+        for &(name, x) in params {
+            let vr = vr_of(name).unwrap();
+            assert_eq!(fmi2SetReal(c, &vr, 1, &x), OK, "{name} = {x}");
+        }
+        if init {
+            assert_eq!(fmi2ExitInitializationMode(c), OK);
+        }
+    }
+    c
+}
+
+/// Steps `c` from `t` to `to` by `h`; returns the time reached.
+fn run(c: *mut c_void, mut t: f64, to: f64, h: f64) -> f64 {
+    while t < to - 1e-12 {
+        assert_eq!(fmi2DoStep(c, t, h, 1), OK, "step at {t}");
+        t += h;
+    }
+    t
+}
+
+/// The serialized bytes of `c` now.
+fn bytes_of(c: *mut c_void) -> Vec<u8> {
+    // SAFETY: a live instance; the state is freed before returning.
+    unsafe {
+        let mut s = ptr::null_mut();
+        assert_eq!(fmi2GetFMUstate(c, &mut s), OK);
+        let mut n = 0;
+        assert_eq!(fmi2SerializedFMUstateSize(c, s, &mut n), OK);
+        let mut b = vec![0u8; n];
+        assert_eq!(fmi2SerializeFMUstate(c, s, b.as_mut_ptr().cast(), n), OK);
+        assert_eq!(fmi2FreeFMUstate(c, &mut s), OK);
+        b
+    }
+}
+
+/// Deserializes `b` into `c` and, if accepted, sets it: `Ok(None)` when refused,
+/// `Ok(Some(t))` with the state's time when accepted and read back within the rules
+/// (and, when `step`, stepped on with outputs within them too).
+fn restore_and_check(c: *mut c_void, b: &[u8], step: bool) -> Result<Option<f64>, String> {
+    // SAFETY: a live instance; `b` holds `b.len()` bytes; the state is freed here.
+    unsafe {
+        let mut s = ptr::null_mut();
+        if fmi2DeSerializeFMUstate(c, b.as_ptr().cast(), b.len(), &mut s) != OK {
+            return Ok(None);
+        }
+        assert_eq!(fmi2SetFMUstate(c, s), OK);
+        assert_eq!(fmi2FreeFMUstate(c, &mut s), OK);
+        read_back(c)?;
+        let mut t = f64::NAN;
+        fmi2GetRealStatus(c, 2, &mut t);
+        if step && t.is_finite() && fmi2DoStep(c, t, 2e-5, 1) == OK {
+            read_back(c).map_err(|e| format!("after a step: {e}"))?;
+        }
+        Ok(Some(t))
+    }
+}
+
+/// The values written over a state's bytes: non-finite, and far out of any bound.
+const FORGED: [f64; 5] = [f64::NAN, f64::INFINITY, f64::NEG_INFINITY, 1e300, -1e300];
+
+/// Every offset of the payload, each forged value written there (8 bytes, unaligned):
+/// the accepted forgeries must read back within the rules. Returns how many were accepted.
+fn scan(state: &[u8], c: *mut c_void, values: &[f64], stride: usize) -> usize {
+    let mut accepted = 0;
+    for at in (HEADER..state.len() - 8).step_by(stride) {
+        for &x in values {
+            let mut b = state.to_vec();
+            b[at..at + 8].copy_from_slice(&x.to_bits().to_le_bytes());
+            if b == state {
+                continue;
+            }
+            reseal(&mut b);
+            let panics = caught_panics();
+            match restore_and_check(c, &b, true) {
+                Ok(None) => {}
+                Ok(Some(_)) => accepted += 1,
+                Err(e) => panic!("{x} at offset {at}: {e}"),
+            }
+            assert_eq!(
+                caught_panics(),
+                panics,
+                "{x} at offset {at}: a panic inside the FMU"
+            );
+        }
+    }
+    accepted
+}
+
+/// A state of a running drive (1.5 s, a light load) forged at every offset with NaN, and
+/// every third offset with ±inf and ±1e300.
+#[test]
+fn forged_states_of_a_running_drive_never_read_back_out_of_their_rules() {
+    let c = instance_with(&[], true);
+    // SAFETY: a live instance, one value reference and one value.
+    unsafe {
+        let vr = vr_of("load_torque_nm").unwrap();
+        assert_eq!(fmi2SetReal(c, &vr, 1, &1e-4), OK);
+    }
+    run(c, 0.0, 1.5, 1e-3);
+    let state = bytes_of(c);
+    let before = live_states();
+    let n = scan(&state, c, &FORGED[..1], 1) + scan(&state, c, &FORGED[1..], 3);
+    assert_eq!(live_states(), before);
+    assert_eq!(caught_panics(), 0);
+    eprintln!("{n} forgeries accepted, all within the rules");
+    fmi2FreeInstance(c);
+}
+
+/// A state saved during initialization (parameters and inputs only, no drive yet): a
+/// forged value must be refused at once, not at fmi2ExitInitializationMode.
+#[test]
+fn forged_states_saved_during_initialization_are_checked_on_restore() {
+    let c = instance_with(&[("load_torque_nm", 0.5)], false);
+    let state = bytes_of(c);
+    let mut accepted = 0;
+    for at in (HEADER..state.len() - 8).step_by(1) {
+        for &x in &FORGED {
+            let mut b = state.to_vec();
+            b[at..at + 8].copy_from_slice(&x.to_bits().to_le_bytes());
+            reseal(&mut b);
+            match restore_and_check(c, &b, false) {
+                Ok(None) => {}
+                Ok(Some(_)) => accepted += 1,
+                Err(e) => panic!("{x} at offset {at}: {e}"),
+            }
+        }
+    }
+    eprintln!("{accepted} forgeries accepted, all within the rules");
+    assert_eq!(caught_panics(), 0);
+    fmi2FreeInstance(c);
+}
+
+/// Each variable's value in a state forged to one outside its rule (NaN, ±inf, out of
+/// its bounds, not whole, a wrong Boolean): refused, naming it.
+#[test]
+fn every_stored_variable_forged_out_of_its_rule_is_refused() {
+    let c = instance_with(&[], true);
+    run(c, 0.0, 0.01, 1e-3);
+    let state = bytes_of(c);
+    // The values follow the GUID, the phase and three times (see fmu::state::payload).
+    let guid_len = fmu::xml::guid().len();
+    let values_at = HEADER + 8 + guid_len + 1 + 3 * 8 + 8;
+    for (k, v) in table().iter().enumerate() {
+        let at = values_at + 8 * k;
+        let held = f64::from_bits(u64::from_le_bytes(state[at..at + 8].try_into().unwrap()));
+        let mut bad = vec![f64::NAN, f64::INFINITY, f64::NEG_INFINITY];
+        if let Some(m) = v.min {
+            bad.push(m - m.abs().max(1.0));
+        }
+        if let Some(m) = v.max {
+            bad.push(m + m.abs().max(1.0));
+        }
+        match (v.kind, v.role) {
+            (Kind::Integer | Kind::Enumeration(_), _) => bad.push(held + 0.5),
+            (Kind::Boolean, _) => bad.push(2.0),
+            (_, Role::Output(_) | Role::Text(_)) => bad.push(1.0),
+            _ => {}
+        }
+        if v.name == "load_torque_nm" {
+            bad.push(5.0);
+        }
+        for x in bad {
+            let mut b = state.clone();
+            b[at..at + 8].copy_from_slice(&x.to_bits().to_le_bytes());
+            reseal(&mut b);
+            let e = fmu::state::deserialize(&b, None)
+                .err()
+                .unwrap_or_else(|| panic!("`{}` = {x} accepted", v.name));
+            assert!(
+                e.contains(v.name) && e.contains("rule"),
+                "`{}` = {x}: {e}",
+                v.name
+            );
+            assert_eq!(restore_and_check(c, &b, false), Ok(None));
+        }
+    }
+    fmi2FreeInstance(c);
+}
+
+/// A state the FMU serialized itself restores: after one short step at a tiny load (the
+/// rotor nudged backwards, its angle a hair below 0 wraps to 2π) and at others.
+#[test]
+fn a_state_after_a_step_at_a_tiny_load_restores() {
+    for load in [1e-12, 1e-200, f64::MIN_POSITIVE, 5e-324, 0.0, 1e-3] {
+        let c = instance_with(&[], true);
+        // SAFETY: a live instance, one value reference and one value.
+        unsafe {
+            let vr = vr_of("load_torque_nm").unwrap();
+            assert_eq!(fmi2SetReal(c, &vr, 1, &load), OK);
+        }
+        run(c, 0.0, 1e-6, 1e-6);
+        let state = bytes_of(c);
+        let e = fmu::state::deserialize(&state, None).err();
+        assert_eq!(e, None, "load {load}: the FMU refused its own state");
+        fmi2FreeInstance(c);
+    }
+}
+
+/// The size of a state is fixed by the parameters: the same at 0, 1 µs, 100 µs and 10 ms
+/// with the current sense's conversion at its shortest (its pipeline then holds the most
+/// conversions) and at the default.
+#[test]
+fn the_size_of_a_state_does_not_change_with_the_steps_taken() {
+    for conv in [None, Some(1e-7), Some(1e-6)] {
+        let params: Vec<(&str, f64)> = conv
+            .map(|x| ("sensing.current.adc_conversion_s", x))
+            .into_iter()
+            .collect();
+        let c = instance_with(&params, true);
+        let mut sizes = vec![bytes_of(c).len()];
+        let mut t = 0.0;
+        for (to, h) in [(1e-6, 1e-6), (1e-4, 1e-6), (1e-2, 1e-4)] {
+            t = run(c, t, to, h);
+            sizes.push(bytes_of(c).len());
+        }
+        assert!(
+            sizes.iter().all(|&n| n == sizes[0]),
+            "conversion {conv:?}: sizes {sizes:?} at 0, 1 µs, 100 µs, 10 ms"
+        );
+        fmi2FreeInstance(c);
+    }
+}
+
+/// The same for every Real parameter at each of its declared bounds (where the rules
+/// that tie parameters together allow it): the size at 0, 1 µs and 100 µs is the same.
+#[test]
+fn the_size_is_fixed_for_every_parameter_at_its_bounds() {
+    let mut checked = 0;
+    for v in table() {
+        if !(matches!(v.role, Role::Parameter { .. }) && v.kind == Kind::Real) {
+            continue;
+        }
+        for x in [v.min, v.max].into_iter().flatten() {
+            let c = instantiate("bounds");
+            let vr = vr_of(v.name).unwrap();
+            // SAFETY: a live instance; one value reference and one value.
+            let ok = unsafe {
+                fmi2SetupExperiment(c, 0, 0.0, 0.0, 0, 0.0) == OK
+                    && fmi2EnterInitializationMode(c) == OK
+                    && fmi2SetReal(c, &vr, 1, &x) == OK
+                    && fmi2ExitInitializationMode(c) == OK
+            };
+            if ok {
+                let mut sizes = vec![bytes_of(c).len()];
+                let mut t = 0.0;
+                for (to, h) in [(1e-6, 1e-6), (1e-4, 1e-5)] {
+                    while t < to - 1e-12 && fmi2DoStep(c, t, h, 1) == OK {
+                        t += h;
+                    }
+                    sizes.push(bytes_of(c).len());
+                }
+                // The one exception the docs state: a comparator toggling more than 64
+                // times within the toggles it keeps (its propagation delay and the step
+                // ahead: ringing or noise at the edge of their ranges) stores 9 bytes
+                // (tick, state) for each toggle beyond.
+                let toggles = |n: usize| n >= sizes[0] && (n - sizes[0]) % 9 == 0;
+                let fixed = sizes.iter().all(|&n| n == sizes[0]);
+                let comparator = v.name.starts_with("sensing.comparator.");
+                if !fixed {
+                    eprintln!("`{}` = {x}: sizes {sizes:?}", v.name);
+                }
+                assert!(
+                    fixed || (comparator && sizes.iter().all(|&n| toggles(n))),
+                    "`{}` = {x}: sizes {sizes:?} at 0, 1 µs, 100 µs",
+                    v.name
+                );
+                checked += 1;
+            }
+            fmi2FreeInstance(c);
+        }
+    }
+    assert!(checked > 50, "{checked} parameter bounds checked");
+}
