@@ -1,35 +1,14 @@
 //! The rows of the variable table ([`crate::variables`]): each input, output and parameter
 //! with its unit, range, description and the config field it reads and writes.
 
-use crate::variables::{EnumType, Input, Kind, Output, Role, Text, Variable};
+use super::variable::{EnumType, Input, Kind, Output, Role, Text, Variable, strategy_choices};
 use bldc_drive::DriveConfig;
 use bldc_drive::drive_core::ParamError;
 use bldc_drive::drive_core::pwm::PwmSchemeKind;
+use bldc_drive::strategies::StrategyName;
 use bldc_drive::strategies::params::SPEED_CMD_MAX_RPM;
-use bldc_drive::strategies::{GuardKind, StrategyName};
 
-/// Every built-in strategy with each guard it can take: twelve-step names fix their
-/// guard, six-step-120 takes any.
-pub fn strategy_choices() -> Vec<(StrategyName, Option<GuardKind>)> {
-    const GUARDS: [GuardKind; 4] = [GuardKind::Df, GuardKind::Raw, GuardKind::Nd, GuardKind::Lm];
-    let mut out = Vec::new();
-    for name in StrategyName::ALL {
-        match name.fixed_guard() {
-            Some(_) => out.push((name, None)),
-            None => out.extend(GUARDS.iter().map(|&g| (name, Some(g)))),
-        }
-    }
-    out
-}
-
-pub(crate) fn choice_name(name: StrategyName, guard: Option<GuardKind>) -> String {
-    match guard {
-        Some(g) => format!("{name}-{}", g.as_str()),
-        None => name.to_string(),
-    }
-}
-
-pub(crate) fn get_strategy(c: &DriveConfig) -> f64 {
+pub(super) fn get_strategy(c: &DriveConfig) -> f64 {
     let s = &c.strategy;
     let guard = s.name.fixed_guard().is_none().then(|| s.guard_kind());
     strategy_choices()
@@ -38,7 +17,7 @@ pub(crate) fn get_strategy(c: &DriveConfig) -> f64 {
         .map_or(0.0, |i| (i + 1) as f64)
 }
 
-pub(crate) fn set_strategy(c: &mut DriveConfig, v: f64) -> Result<(), ParamError> {
+pub(super) fn set_strategy(c: &mut DriveConfig, v: f64) -> Result<(), ParamError> {
     let choices = strategy_choices();
     let (name, guard) = item(&choices, v).ok_or_else(|| {
         ParamError::new(
@@ -171,7 +150,7 @@ const BELOW_180: Option<f64> = Some(f64::from_bits(180f64.to_bits() - 1));
 
 /// The rows, one per variable, in value-reference order (kept as a table, unformatted).
 #[rustfmt::skip]
-pub(crate) fn build_table() -> Vec<Variable> {
+pub(super) fn build_table() -> Vec<Variable> {
     use Kind::{Boolean, Integer, Real};
     let z = Some(0.0);
     vec![
