@@ -1,7 +1,8 @@
 //! The documentation stays true to the code: the metric and column reference in
 //! `docs/outputs.md` is the report's own (regenerated with `UPDATE_DOCS=1 cargo test --test
-//! docs`), every summary key and trace column is documented, and the README and `docs/`
-//! stand alone: their relative links resolve inside the project.
+//! docs`), every summary key and trace column is documented, and the README, ARCHITECTURE.md
+//! and `docs/` stand alone: their relative links resolve inside the project, and the files
+//! ARCHITECTURE.md names exist.
 
 use bldc_drive::DriveConfig;
 use bldc_drive::bench::Plan;
@@ -61,7 +62,9 @@ fn every_summary_key_and_trace_column_is_documented() {
 
 /// Every Markdown file the project ships for readers.
 fn reader_docs() -> Vec<PathBuf> {
-    let mut files = vec![root().join("README.md"), root().join("CHANGELOG.md")];
+    let mut files = ["README.md", "CHANGELOG.md", "ARCHITECTURE.md"]
+        .map(|f| root().join(f))
+        .to_vec();
     for e in std::fs::read_dir(root().join("docs")).unwrap() {
         let p = e.unwrap().path();
         if p.extension().is_some_and(|x| x == "md") {
@@ -119,5 +122,31 @@ fn readme_examples_are_the_files() {
     assert!(
         read("python/README.md").contains(&format!("```json\n{cases}```")),
         "python/README.md must show examples/sweep.json as it is"
+    );
+}
+
+/// The files ARCHITECTURE.md names in code spans (`tests/summary.rs`, `scripts/test.sh`)
+/// exist: the map names code by module and type, and the tests and scripts by path.
+#[test]
+fn the_files_architecture_md_names_exist() {
+    let text = read("ARCHITECTURE.md");
+    let mut missing = Vec::new();
+    let mut named = 0;
+    for span in text.split('`').skip(1).step_by(2) {
+        let path = span.split_whitespace().next().unwrap_or("");
+        let is_file = [".rs", ".md", ".sh", ".json"]
+            .iter()
+            .any(|x| path.ends_with(x));
+        if is_file && path.contains('/') {
+            named += 1;
+            if !root().join(path).exists() {
+                missing.push(path.to_string());
+            }
+        }
+    }
+    assert!(named > 10, "only {named} paths found: the parse broke");
+    assert!(
+        missing.is_empty(),
+        "ARCHITECTURE.md names missing files: {missing:?}"
     );
 }

@@ -701,15 +701,24 @@ mod tests {
         }
     }
 
-    /// The horizons the plant is given over the steps up to `end`.
-    fn horizons(plan: Option<(Ticks, Pattern)>, end: Ticks) -> Vec<u64> {
+    /// The command the planning tests hold: u high, v low, w floating at duty 50, nothing
+    /// watched or read, no wake-up.
+    fn held() -> Command {
         use crate::bridge::LegState::{Float as F, High as V, Low as G};
-        let cmd = Command {
+        Command {
             pattern: Abc { u: V, v: G, w: F },
             duty: 50,
             watch: Abc::splat(false),
             reads: Abc::splat(Ticks::NEVER),
+            wake_at: Ticks::NEVER,
+        }
+    }
+
+    /// The horizons the plant is given over the steps up to `end`.
+    fn horizons(plan: Option<(Ticks, Pattern)>, end: Ticks) -> Vec<u64> {
+        let cmd = Command {
             wake_at: plan.map_or(Ticks::NEVER, |p| p.0),
+            ..held()
         };
         horizons_of(Planner { cmd, plan }, end)
     }
@@ -773,13 +782,7 @@ mod tests {
                 Some((Ticks::ZERO, Abc { u: F, v: G, w: V }))
             }
         }
-        let cmd = Command {
-            pattern: Abc { u: V, v: G, w: F },
-            duty: 50,
-            watch: Abc::splat(false),
-            reads: Abc::splat(Ticks::NEVER),
-            wake_at: Ticks::NEVER,
-        };
+        let cmd = held();
         let end = Ticks(200);
         let h = horizons_of(Stale(cmd), end);
         assert_eq!(h, horizons(None, end));
@@ -820,13 +823,7 @@ mod tests {
                 Ok(())
             }
         }
-        let cmd = Command {
-            pattern: Abc { u: V, v: G, w: F },
-            duty: 50,
-            watch: Abc::splat(false),
-            reads: Abc::splat(Ticks::NEVER),
-            wake_at: Ticks::NEVER,
-        };
+        let cmd = held();
         let strict = |at| Strict {
             cmd,
             at,

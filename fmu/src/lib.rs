@@ -14,6 +14,5 @@ pub mod exports;
 pub mod ffi;
 pub mod model;
 pub mod state;
-pub mod table;
 pub mod variables;
 pub mod xml;

@@ -907,15 +907,10 @@ mod tests {
         Circuit::new(&MotorParams::default(), &PowerStageParams::default())
     }
 
-    /// The planned solves against `Circuit::solve` bit for bit, in every conduction state:
-    /// with the losses, and without them then made by `with_losses`. Currents and
-    /// back-EMFs from a fixed pseudo-random sequence, with signed zeros among them.
-    #[test]
-    fn planned_solves_equal_the_full_solve_bit_for_bit() {
-        let c = circuit();
-        let mut seed = 0x9e37_79b9_7f4a_7c15u64;
-        let mut draw = |scale: f64| {
-            // xorshift64*: uniform in (−scale, scale), every eighth value a signed zero.
+    /// A fixed pseudo-random sequence of signed values from `seed` (xorshift64*): each call
+    /// `draw(scale)` is uniform in (−scale, scale), and every eighth value a signed zero.
+    fn draws(mut seed: u64) -> impl FnMut(f64) -> f64 {
+        move |scale| {
             seed ^= seed >> 12;
             seed ^= seed << 25;
             seed ^= seed >> 27;
@@ -925,7 +920,16 @@ mod tests {
                 1 => -0.0,
                 _ => scale * ((r >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0),
             }
-        };
+        }
+    }
+
+    /// The planned solves against `Circuit::solve` bit for bit, in every conduction state:
+    /// with the losses, and without them then made by `with_losses`. Currents and
+    /// back-EMFs from a fixed pseudo-random sequence, with signed zeros among them.
+    #[test]
+    fn planned_solves_equal_the_full_solve_bit_for_bit() {
+        let c = circuit();
+        let mut draw = draws(0x9e37_79b9_7f4a_7c15);
         let bits = |s: &Solution| -> Vec<u64> {
             let p = &s.powers;
             let mut v: Vec<u64> = [s.v_n, s.i_shunt, p.supply, p.copper, p.switch]
@@ -977,25 +981,14 @@ mod tests {
     #[test]
     fn drawn_powers_equal_the_full_powers_bit_for_bit() {
         let c = circuit();
-        let mut seed = 0x2545_f491_4f6c_dd1du64;
-        let mut draw = || {
-            seed ^= seed >> 12;
-            seed ^= seed << 25;
-            seed ^= seed >> 27;
-            let r = seed.wrapping_mul(0x2545_f491_4f6c_dd1d);
-            match r % 8 {
-                0 => 0.0,
-                1 => -0.0,
-                _ => 5.0 * ((r >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0),
-            }
-        };
+        let mut draw = draws(0x2545_f491_4f6c_dd1d);
         let bits = |p: &Powers| [p.supply, p.copper, p.switch, p.diode, p.shunt].map(f64::to_bits);
         for k in 0..STATES {
             let lin = c.linearise(&state_at(k));
             for _ in 0..100 {
                 let (a, b): ([f64; 3], [f64; 3]) = (
-                    std::array::from_fn(|_| draw()),
-                    std::array::from_fn(|_| draw()),
+                    std::array::from_fn(|_| draw(5.0)),
+                    std::array::from_fn(|_| draw(5.0)),
                 );
                 let (pa, pb) = lin.drawn(&a, &b);
                 assert_eq!(

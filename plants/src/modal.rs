@@ -344,6 +344,17 @@ mod tests {
     use crate::circuit::Circuit;
     use crate::params::{MotorParams, PowerStageParams};
 
+    /// A speed-varying forcing (Ω = 2000 rad/s, every term of the back-EMF and of the
+    /// angle's lead non-zero) that the response tests share.
+    const SPEEDING_UP: Forcing = Forcing {
+        omega: 2000.0,
+        amp: 1.5,
+        slope: 300.0,
+        quad: 4e5,
+        d1: -0.01,
+        d2: 500.0,
+    };
+
     /// Every conduction state of the default drive has a modal form (else its steps would
     /// quietly fall back to RK4): orthonormal eigenvectors of K with decaying eigenvalues,
     /// as many as conducting phases less one.
@@ -386,14 +397,7 @@ mod tests {
         let md = Modal::new(&modes, &c.linearise(&modes)).expect("a modal form");
         assert_eq!(md.m, 2);
         let th0: f64 = 0.7;
-        let f = Forcing {
-            omega: 2000.0,
-            amp: 1.5,
-            slope: 300.0,
-            quad: 4e5,
-            d1: -0.01,
-            d2: 500.0,
-        };
+        let f = SPEEDING_UP;
         let sc0 = th0.sin_cos();
         let rsp = Response::new(&md, &[0.3, -0.5, 0.2], sc0, &f);
         // The current of phase k at t [s], from the response at the angle φ0 + Ω·t.
@@ -430,14 +434,7 @@ mod tests {
     #[test]
     fn paired_currents_equal_single_ones_bit_for_bit() {
         let c = Circuit::new(&MotorParams::default(), &PowerStageParams::default());
-        let f = Forcing {
-            omega: 2000.0,
-            amp: 1.5,
-            slope: 300.0,
-            quad: 4e5,
-            d1: -0.01,
-            d2: 500.0,
-        };
+        let f = SPEEDING_UP;
         for w in [Conduction::Open, Conduction::DiodeLow] {
             let modes = Abc {
                 u: Conduction::SwitchHigh,

@@ -1,35 +1,15 @@
 //! The rows of the variable table ([`crate::variables`]): each input, output and parameter
 //! with its unit, range, description and the config field it reads and writes.
 
-use crate::variables::{EnumType, Input, Kind, Output, Role, Text, Variable};
+use super::variable::Kind::{Boolean, Integer, Real};
+use super::variable::{EnumType, Input, Kind, Output, Role, Text, Variable, strategy_choices};
 use bldc_drive::DriveConfig;
 use bldc_drive::drive_core::ParamError;
 use bldc_drive::drive_core::pwm::PwmSchemeKind;
+use bldc_drive::strategies::StrategyName;
 use bldc_drive::strategies::params::SPEED_CMD_MAX_RPM;
-use bldc_drive::strategies::{GuardKind, StrategyName};
 
-/// Every built-in strategy with each guard it can take: twelve-step names fix their
-/// guard, six-step-120 takes any.
-pub fn strategy_choices() -> Vec<(StrategyName, Option<GuardKind>)> {
-    const GUARDS: [GuardKind; 4] = [GuardKind::Df, GuardKind::Raw, GuardKind::Nd, GuardKind::Lm];
-    let mut out = Vec::new();
-    for name in StrategyName::ALL {
-        match name.fixed_guard() {
-            Some(_) => out.push((name, None)),
-            None => out.extend(GUARDS.iter().map(|&g| (name, Some(g)))),
-        }
-    }
-    out
-}
-
-pub(crate) fn choice_name(name: StrategyName, guard: Option<GuardKind>) -> String {
-    match guard {
-        Some(g) => format!("{name}-{}", g.as_str()),
-        None => name.to_string(),
-    }
-}
-
-pub(crate) fn get_strategy(c: &DriveConfig) -> f64 {
+pub(super) fn get_strategy(c: &DriveConfig) -> f64 {
     let s = &c.strategy;
     let guard = s.name.fixed_guard().is_none().then(|| s.guard_kind());
     strategy_choices()
@@ -38,7 +18,7 @@ pub(crate) fn get_strategy(c: &DriveConfig) -> f64 {
         .map_or(0.0, |i| (i + 1) as f64)
 }
 
-pub(crate) fn set_strategy(c: &mut DriveConfig, v: f64) -> Result<(), ParamError> {
+pub(super) fn set_strategy(c: &mut DriveConfig, v: f64) -> Result<(), ParamError> {
     let choices = strategy_choices();
     let (name, guard) = item(&choices, v).ok_or_else(|| {
         ParamError::new(
@@ -168,14 +148,30 @@ fn output(
 const POSITIVE: Option<f64> = Some(f64::MIN_POSITIVE);
 /// The declared max of a `< 180°` rule: the largest f64 below 180 (at 180° nothing floats).
 const BELOW_180: Option<f64> = Some(f64::from_bits(180f64.to_bits() - 1));
+/// A declared bound at zero.
+const Z: Option<f64> = Some(0.0);
 
-/// The rows, one per variable, in value-reference order (kept as a table, unformatted).
+/// The rows, one per variable, in value-reference order: the groups of the first layout,
+/// then the variables appended since.
+pub(super) fn build_table() -> Vec<Variable> {
+    [
+        inputs(),
+        outputs(),
+        strategy(),
+        motor(),
+        power_stage(),
+        sensing(),
+        solver(),
+        control(),
+        appended(),
+    ]
+    .concat()
+}
+
+/// The inputs, set by the master between steps: speed command, load torque, enable.
 #[rustfmt::skip]
-pub(crate) fn build_table() -> Vec<Variable> {
-    use Kind::{Boolean, Integer, Real};
-    let z = Some(0.0);
+fn inputs() -> Vec<Variable> {
     vec![
-        // Inputs.
         Variable {
             min: Some(0.0),
             max: Some(SPEED_CMD_MAX_RPM),
@@ -191,7 +187,13 @@ pub(crate) fn build_table() -> Vec<Variable> {
         },
         var("enable", Boolean, Role::Input(Input::Enable), "",
             "Drive enable: true holds the chip's start input (alignment, then closed loop after 31 master clocks); false drops start and holds reset (bridge off, restart count cleared)"),
-        // Outputs.
+    ]
+}
+
+/// The outputs, computed by the drive (`in_sync` and `verdict` came later: [`appended`]).
+#[rustfmt::skip]
+fn outputs() -> Vec<Variable> {
+    vec![
         output("speed_rpm", Real, Output::SpeedRpm, "rpm", "True mechanical speed of the rotor"),
         output("speed_est_rpm", Real, Output::SpeedEstRpm, "rpm",
             "The chip's FG speed measurement (39 062 500 / N, 0 before the first measurement)"),
@@ -207,7 +209,13 @@ pub(crate) fn build_table() -> Vec<Variable> {
             "Commutation state [1]: 1..12 twelve-step, 1..6 six-step, 0 when off, aligning or starting"),
         output("restarts", Integer, Output::Restarts, "",
             "Restarts after step-miss errors so far [count]; cleared while enable is false"),
-        // Strategy.
+    ]
+}
+
+/// The built-in strategy, its guard and their windows.
+#[rustfmt::skip]
+fn strategy() -> Vec<Variable> {
+    vec![
         var("strategy.name", Kind::Enumeration(EnumType::Strategy),
             Role::Parameter { get: get_strategy, set: set_strategy }, "",
             "Commutation strategy and zero-crossing guard (six-step-120 with any guard; twelve-step names fix theirs)"),
@@ -216,46 +224,64 @@ pub(crate) fn build_table() -> Vec<Variable> {
             "Conduction angle per half cycle of the twelve-step strategies (120 <= x < 180); ignored by six-step-120") },
         int!("strategy.linear_region_deg", strategy.linear_region_deg, Some(1.0), Some(60.0),
             "Linear-region window before each expected crossing (nd; upper end of lm) [electrical degrees]"),
-        int!("strategy.lm_speed_max_rpm", strategy.lm_speed_max_rpm, z, Some(SPEED_CMD_MAX_RPM),
+        int!("strategy.lm_speed_max_rpm", strategy.lm_speed_max_rpm, Z, Some(SPEED_CMD_MAX_RPM),
             "ωM: speed from which lm uses the full window [rpm]; must exceed strategy.lm_speed_min_rpm"),
-        int!("strategy.lm_speed_min_rpm", strategy.lm_speed_min_rpm, z, Some(SPEED_CMD_MAX_RPM - 1.0),
+        int!("strategy.lm_speed_min_rpm", strategy.lm_speed_min_rpm, Z, Some(SPEED_CMD_MAX_RPM - 1.0),
             "ωm: speed at and below which lm uses a 1° window [rpm]"),
         int!("strategy.filter_samples", strategy.filter_samples, Some(1.0), Some(64.0),
             "Flip-flops of the digital filter, clocked at 0.64 µs [count]"),
-        // Motor.
+    ]
+}
+
+/// The motor.
+#[rustfmt::skip]
+fn motor() -> Vec<Variable> {
+    vec![
         int!("motor.poles", motor.poles, Some(2.0), Some(200.0), "Number of poles P, even [count]"),
         real!("motor.flux_linkage_wb", motor.flux_linkage_wb, "Wb", Some(1e-6), Some(1.0),
             "PM flux-linkage amplitude per phase λr"),
         real!("motor.self_inductance_h", motor.self_inductance_h, "H", Some(1e-7), Some(1.0),
             "Phase self inductance Lp"),
-        real!("motor.mutual_inductance_h", motor.mutual_inductance_h, "H", z, Some(1.0),
+        real!("motor.mutual_inductance_h", motor.mutual_inductance_h, "H", Z, Some(1.0),
             "Mutual inductance between two phases M (< Lp)"),
         real!("motor.resistance_ohm", motor.resistance_ohm, "Ohm", Some(1e-4), Some(1e3),
             "Phase resistance R"),
         real!("motor.inertia_kgm2", motor.inertia_kgm2, "kg.m2", Some(1e-9), Some(10.0),
             "Rotor inertia J; also max_step·(Bm + Tc/ω0)/J <= 2"),
-        real!("motor.viscous_friction_nms", motor.viscous_friction_nms, "N.m.s/rad", z, Some(1.0),
+        real!("motor.viscous_friction_nms", motor.viscous_friction_nms, "N.m.s/rad", Z, Some(1.0),
             "Viscous friction Bm"),
-        real!("motor.coulomb_friction_nm", motor.coulomb_friction_nm, "N.m", z, Some(1.0),
+        real!("motor.coulomb_friction_nm", motor.coulomb_friction_nm, "N.m", Z, Some(1.0),
             "Coulomb bearing drag Tc, applied as Tc·tanh(ωm/ω0)"),
         real!("motor.coulomb_speed_rad_s", motor.coulomb_speed_rad_s, "rad/s", Some(1e-3), Some(1e3),
             "Regularisation speed ω0 of the Coulomb drag"),
-        // Power stage.
+    ]
+}
+
+/// The power stage.
+#[rustfmt::skip]
+fn power_stage() -> Vec<Variable> {
+    vec![
         real!("power_stage.supply_v", power_stage.supply_v, "V", Some(1e-3), Some(1000.0),
             "Supply V_DD"),
-        real!("power_stage.switch_on_resistance_ohm", power_stage.switch_on_resistance_ohm, "Ohm", z,
+        real!("power_stage.switch_on_resistance_ohm", power_stage.switch_on_resistance_ohm, "Ohm", Z,
             Some(10.0), "On-resistance of each switch"),
-        real!("power_stage.diode_forward_v", power_stage.diode_forward_v, "V", z, Some(10.0),
+        real!("power_stage.diode_forward_v", power_stage.diode_forward_v, "V", Z, Some(10.0),
             "Diode forward voltage"),
-        real!("power_stage.diode_resistance_ohm", power_stage.diode_resistance_ohm, "Ohm", z, Some(10.0),
+        real!("power_stage.diode_resistance_ohm", power_stage.diode_resistance_ohm, "Ohm", Z, Some(10.0),
             "Diode slope resistance"),
-        real!("power_stage.shunt_ohm", power_stage.shunt_ohm, "Ohm", z, Some(10.0),
+        real!("power_stage.shunt_ohm", power_stage.shunt_ohm, "Ohm", Z, Some(10.0),
             "Current-sense shunt between the low-side switches and ground"),
-        real!("power_stage.dead_time_s", power_stage.dead_time_s, "s", z, Some(10e-6),
+        real!("power_stage.dead_time_s", power_stage.dead_time_s, "s", Z, Some(10e-6),
             "Dead time before every switch turn-on, rounded to 20 ns (complementary needs > 0)"),
         var("power_stage.pwm_scheme", Kind::Enumeration(EnumType::PwmScheme),
             Role::Parameter { get: get_pwm, set: set_pwm }, "", "Which switches chop"),
-        // Sensing.
+    ]
+}
+
+/// The current sense, the comparators and the seed of their noise.
+#[rustfmt::skip]
+fn sensing() -> Vec<Variable> {
+    vec![
         real!("sensing.current.amplifier_gain", sensing.current.amplifier_gain, "1", POSITIVE,
             Some(1e4), "Shunt amplifier gain (> 0)"),
         real!("sensing.current.amplifier_max_v", sensing.current.amplifier_max_v, "V",
@@ -278,22 +304,22 @@ pub(crate) fn build_table() -> Vec<Variable> {
             Some(1.0), "Input offset of comparator v"),
         real!("sensing.comparator.offset_v.w", sensing.comparator.offset_v.w, "V", Some(-1.0),
             Some(1.0), "Input offset of comparator w"),
-        real!("sensing.comparator.hysteresis_v", sensing.comparator.hysteresis_v, "V", z, Some(1.0),
+        real!("sensing.comparator.hysteresis_v", sensing.comparator.hysteresis_v, "V", Z, Some(1.0),
             "Comparator hysteresis, full width"),
-        real!("sensing.comparator.delay_s", sensing.comparator.delay_s, "s", z, Some(100e-6),
+        real!("sensing.comparator.delay_s", sensing.comparator.delay_s, "s", Z, Some(100e-6),
             "Comparator propagation delay, rounded to 20 ns"),
-        real!("sensing.comparator.noise_v", sensing.comparator.noise_v, "V", z, Some(1.0),
+        real!("sensing.comparator.noise_v", sensing.comparator.noise_v, "V", Z, Some(1.0),
             "Peak input-referred comparator noise"),
         real!("sensing.comparator.noise_interval_s", sensing.comparator.noise_interval_s, "s",
             Some(20e-9), Some(1e-3), "Interval between independent noise samples"),
-        real!("sensing.comparator.ring_gain", sensing.comparator.ring_gain, "1", z, Some(1.0),
+        real!("sensing.comparator.ring_gain", sensing.comparator.ring_gain, "1", Z, Some(1.0),
             "Switching ringing coupled into the comparator inputs per volt of step"),
         real!("sensing.comparator.ring_frequency_hz", sensing.comparator.ring_frequency_hz, "Hz",
             Some(1e3), Some(1e9), "Ringing frequency"),
         real!("sensing.comparator.ring_decay_s", sensing.comparator.ring_decay_s, "s", Some(1e-9),
             Some(1e-3), "Ringing decay time constant"),
         Variable {
-            min: z,
+            min: Z,
             max: Some(f64::from(i32::MAX)),
             ..var("seed", Integer, Role::Parameter {
                 get: |c| c.sensing.seed as f64,
@@ -303,17 +329,30 @@ pub(crate) fn build_table() -> Vec<Variable> {
                 },
             }, "", "Seed of the comparator noise (sensing.seed); the same seed reproduces every glitch")
         },
-        // Solver.
+    ]
+}
+
+/// The solver.
+#[rustfmt::skip]
+fn solver() -> Vec<Variable> {
+    vec![
         real!("solver.max_step_s", solver.max_step_s, "s", Some(0.1e-6), Some(100e-6),
             "Longest step of the plant between events"),
-        // Control.
-        real!("control.speed_kp", control.speed_kp, "A/rpm", z, Some(1.0),
+    ]
+}
+
+/// The chip's speed and current loops, alignment and start-up, restarts and the speed
+/// meter.
+#[rustfmt::skip]
+fn control() -> Vec<Variable> {
+    vec![
+        real!("control.speed_kp", control.speed_kp, "A/rpm", Z, Some(1.0),
             "Speed PI proportional gain"),
-        real!("control.speed_ki", control.speed_ki, "A/rpm", z, Some(1.0),
+        real!("control.speed_ki", control.speed_ki, "A/rpm", Z, Some(1.0),
             "Speed PI integral gain per PI update (5.24 ms)"),
-        real!("control.current_kp", control.current_kp, "1/A", z, Some(1e6),
+        real!("control.current_kp", control.current_kp, "1/A", Z, Some(1e6),
             "Current PI proportional gain [carrier counts/A]"),
-        real!("control.current_ki", control.current_ki, "1/A", z, Some(1e6),
+        real!("control.current_ki", control.current_ki, "1/A", Z, Some(1e6),
             "Current PI integral gain per PI update [carrier counts/A]"),
         real!("control.current_limit_a", control.current_limit_a, "A", POSITIVE,
             Some(10.0), "Current command limit (> 0)"),
@@ -326,7 +365,7 @@ pub(crate) fn build_table() -> Vec<Variable> {
                 Ok(())
             },
         }, "", "Back-calculation anti-windup on the current PI"),
-        real!("control.anti_windup_gain", control.anti_windup_gain, "1", z, Some(1024.0),
+        real!("control.anti_windup_gain", control.anti_windup_gain, "1", Z, Some(1024.0),
             "Back-calculation gain k_s"),
         real!("control.startup_duty", control.startup_duty, "1", POSITIVE,
             Some(1.0), "Voltage command during alignment and start-up, fraction of the carrier top (> 0)"),
@@ -340,12 +379,21 @@ pub(crate) fn build_table() -> Vec<Variable> {
             "Assumed first 60° interval after the hand-over to closed loop"),
         real!("control.step_miss_s", control.step_miss_s, "s", Some(0.001), Some(10.0),
             "Step-miss limit: FG unchanged longer than this restarts the drive"),
-        int!("control.max_restarts", control.max_restarts, z, Some(1000.0),
+        int!("control.max_restarts", control.max_restarts, Z, Some(1000.0),
             "Restarts allowed before the drive gives up [count]"),
         int!("control.speed_periods", control.speed_periods, Some(1.0), Some(100.0),
             "FG periods per speed measurement k [count]"),
         int!("control.speed_counter_bits", control.speed_counter_bits, Some(8.0), Some(32.0),
             "Width of the speed counter [bits]"),
+    ]
+}
+
+/// The variables appended after the first layout, in the order they came, so that no
+/// earlier value reference moved: the strategy plugin, the speed PI's anti-windup, `in_sync`,
+/// the supervisor and the start-up's confirmation, lm's capped window, `verdict`.
+#[rustfmt::skip]
+fn appended() -> Vec<Variable> {
+    vec![
         // Strategy plugin: last, so adding it left every other value reference unchanged.
         var("strategy.plugin", Kind::String, Role::Text(Text::StrategyPlugin), "",
             "Strategy plugin: a shared library built against strategy-abi, as an absolute path or relative to the FMU's resources folder; its strategy replaces strategy.name. Empty: the built-in strategy.name"),
@@ -380,9 +428,9 @@ pub(crate) fn build_table() -> Vec<Variable> {
             "Rise of the speed measurement over the lowest of a coast that trips the supervisor"),
         real!("control.supervisor_locked_rotor_a", control.supervisor_locked_rotor_a, "A", POSITIVE,
             Some(1000.0), "Locked-rotor current at full voltage the supervisor assumes, V_DD/(2R) (> 0)"),
-        real!("control.supervisor_locked_share", control.supervisor_locked_share, "1", z, Some(1.0),
+        real!("control.supervisor_locked_share", control.supervisor_locked_share, "1", Z, Some(1.0),
             "Share of the locked-rotor current at the duty in force a measured current must reach to count as implausible"),
-        int!("control.startup_confirm_deg", control.startup_confirm_deg, z, Some(15.0),
+        int!("control.startup_confirm_deg", control.startup_confirm_deg, Z, Some(15.0),
             "Until the first speed measurement, a crossing needs the comparator at its new level for this many electrical degrees of the last 60° time (0: off) [deg]"),
         real!("control.startup_conduction_deg", control.startup_conduction_deg, "deg", Some(120.0), BELOW_180,
             "Twelve-step conduction angle until the first speed measurement, when narrower than strategy.conduction_angle_deg (120 <= x < 180)"),

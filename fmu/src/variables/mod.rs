@@ -1,191 +1,27 @@
 //! The variable table: every FMU variable, its value reference (its index here), type,
-//! unit, description, range, and where it lives in [`DriveConfig`] or the running drive.
+//! unit, description, range, and where it lives in [`DriveConfig`](bldc_drive::DriveConfig)
+//! or the running drive.
 //!
 //! It is the one source of truth: the exported functions look values up here, and
 //! `modelDescription.xml` and the GUID are generated from it ([`crate::xml`]). Start
 //! values of parameters are read from `DriveConfig::default()`, never written twice.
+//!
+//! One direction: `variable` says what a variable is, `table` writes the rows with it, and
+//! this module serves the rows; neither of the two imports from here.
 
-use crate::table::{build_table, choice_name, strategy_choices};
-use bldc_drive::DriveConfig;
-use bldc_drive::drive_core::ParamError;
-use bldc_drive::drive_core::pwm::PwmSchemeKind;
-use bldc_drive::verdict::Verdict;
+mod table;
+mod variable;
+
+pub use variable::{
+    EnumType, Getter, Input, Kind, Output, Role, Setter, Text, Variable, strategy_choices,
+};
+
 use std::sync::OnceLock;
-
-/// Reads a value from a config (as the f64 every variable is stored as).
-pub type Getter = fn(&DriveConfig) -> f64;
-/// Writes a value into a config; fails with the field, the value and the rule.
-pub type Setter = fn(&mut DriveConfig, f64) -> Result<(), ParamError>;
-
-/// FMI base type of a variable.
-#[derive(Copy, Clone, Debug, PartialEq, Eq)]
-pub enum Kind {
-    /// `fmi2Real`.
-    Real,
-    /// `fmi2Integer`.
-    Integer,
-    /// `fmi2Boolean`.
-    Boolean,
-    /// `fmi2String` (its value lives in the model's texts, not in the f64 values).
-    String,
-    /// An enumeration (accessed with `fmi2Get/SetInteger`), items numbered from 1.
-    Enumeration(EnumType),
-}
-
-/// The enumeration types of the model.
-#[derive(Copy, Clone, Debug, PartialEq, Eq)]
-pub enum EnumType {
-    /// Built-in strategy and guard ([`strategy_choices`]).
-    Strategy,
-    /// PWM scheme ([`PwmSchemeKind::ALL`]).
-    PwmScheme,
-    /// The run verdict ([`Verdict::ALL`], with `_` for `-`).
-    Verdict,
-}
-
-impl EnumType {
-    /// Name of the `SimpleType` in the model description.
-    pub fn type_name(self) -> &'static str {
-        match self {
-            EnumType::Strategy => "Strategy",
-            EnumType::PwmScheme => "PwmScheme",
-            EnumType::Verdict => "Verdict",
-        }
-    }
-
-    /// Item names, in value order (value = position + 1): the library's names with `_`
-    /// for `-`, so that each is a Modelica identifier (`twelve_step_df`, `high_side_chop`).
-    pub fn items(self) -> Vec<String> {
-        let names: Vec<String> = match self {
-            EnumType::Strategy => strategy_choices()
-                .iter()
-                .map(|&(n, g)| choice_name(n, g))
-                .collect(),
-            EnumType::PwmScheme => PwmSchemeKind::ALL
-                .iter()
-                .map(|k| k.name().to_string())
-                .collect(),
-            EnumType::Verdict => Verdict::ALL
-                .iter()
-                .map(|v| v.as_str().to_string())
-                .collect(),
-        };
-        names.into_iter().map(|n| n.replace('-', "_")).collect()
-    }
-
-    /// Every enumeration type of the model.
-    pub const ALL: [EnumType; 3] = [EnumType::Strategy, EnumType::PwmScheme, EnumType::Verdict];
-}
-
-/// A drive input, set by the master between steps.
-#[derive(Copy, Clone, Debug, PartialEq, Eq)]
-pub enum Input {
-    /// Speed command \[rpm\] → `Strategy::set_speed_ref`.
-    SpeedRef,
-    /// Load torque on the shaft [N·m] → `BldcPlant::set_load_torque`.
-    LoadTorque,
-    /// Drive enable → the chip's start input (and reset while low).
-    Enable,
-}
-
-/// A drive output, read from the plant's observation or the chip's status.
-#[derive(Copy, Clone, Debug, PartialEq, Eq)]
-pub enum Output {
-    /// True mechanical speed \[rpm\].
-    SpeedRpm,
-    /// The chip's FG speed measurement \[rpm\].
-    SpeedEstRpm,
-    /// Electrical angle θe \[deg\] in 0..360.
-    ThetaEDeg,
-    /// Phase current u \[A\].
-    IU,
-    /// Phase current v \[A\].
-    IV,
-    /// Phase current w \[A\].
-    IW,
-    /// Electromagnetic torque [N·m].
-    TorqueNm,
-    /// PWM duty, fraction 0..1 of the carrier top.
-    Duty,
-    /// Commutation state.
-    State,
-    /// Restarts so far.
-    Restarts,
-    /// 1 while the last two electrical turns of commutations followed the true rotor.
-    InSync,
-    /// The run verdict now (an item of [`EnumType::Verdict`]).
-    Verdict,
-}
-
-/// What a variable is and where its value comes from.
-#[derive(Copy, Clone, Debug)]
-pub enum Role {
-    /// Fixed after initialization; lives in the config the drive is built from.
-    Parameter {
-        /// Reads it (the start value is `get(&DriveConfig::default())`).
-        get: Getter,
-        /// Writes it at `fmi2ExitInitializationMode`.
-        set: Setter,
-    },
-    /// Set by the master at any communication point.
-    Input(Input),
-    /// Computed by the drive.
-    Output(Output),
-    /// A String parameter: fixed after initialization, read when the drive is built.
-    Text(Text),
-}
-
-/// A String parameter.
-#[derive(Copy, Clone, Debug, PartialEq, Eq)]
-pub enum Text {
-    /// Path of a strategy plugin (empty: the built-in `strategy.name`).
-    StrategyPlugin,
-}
-
-/// One FMU variable.
-#[derive(Copy, Clone, Debug)]
-pub struct Variable {
-    /// Unique name (structured: the dotted config path for parameters).
-    pub name: &'static str,
-    /// FMI type.
-    pub kind: Kind,
-    /// Role and value source.
-    pub role: Role,
-    /// Unit (Real only; other types carry it in the description).
-    pub unit: &'static str,
-    /// One-line description.
-    pub description: &'static str,
-    /// Lower bound (inclusive, as FMI defines it), where a rule has one.
-    pub min: Option<f64>,
-    /// Upper bound, where a rule has one.
-    pub max: Option<f64>,
-}
-
-impl Variable {
-    /// The start value: defaults of the config for parameters and the speed command.
-    pub fn start(&self) -> Option<f64> {
-        match self.role {
-            Role::Parameter { get, .. } => Some(get(&DriveConfig::default())),
-            Role::Input(Input::SpeedRef) => Some(DriveConfig::default().control.speed_ref_rpm),
-            Role::Input(Input::LoadTorque) => Some(0.0),
-            Role::Input(Input::Enable) => Some(1.0),
-            Role::Output(_) | Role::Text(_) => None,
-        }
-    }
-
-    /// The start value of a String variable.
-    pub fn start_text(&self) -> Option<&'static str> {
-        match self.role {
-            Role::Text(Text::StrategyPlugin) => Some(""),
-            _ => None,
-        }
-    }
-}
 
 /// The variable table; the value reference of a variable is its index.
 pub fn table() -> &'static [Variable] {
     static TABLE: OnceLock<Vec<Variable>> = OnceLock::new();
-    TABLE.get_or_init(build_table)
+    TABLE.get_or_init(table::build_table)
 }
 
 /// The variable with value reference `vr`.
@@ -203,8 +39,9 @@ pub fn vr_of(name: &str) -> Option<u32> {
 
 #[cfg(test)]
 mod tests {
+    use super::table::{get_strategy, set_strategy};
     use super::*;
-    use crate::table::{get_strategy, set_strategy};
+    use bldc_drive::DriveConfig;
 
     #[test]
     fn names_are_unique_and_inputs_outputs_are_the_issues_names() {
