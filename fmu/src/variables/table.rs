@@ -444,6 +444,31 @@ fn appended() -> Vec<Variable> {
             },
         }, "", "lm only (not in the published chip): the linear region ends θZC after it began even if the crossing has not been detected, so a region opened early cannot hold full voltage for several θZC"),
         output("verdict", Kind::Enumeration(EnumType::Verdict), Output::Verdict, "",
-            "The run verdict now, judged from the true rotor as drive-bench judges a run, on the recent past: running, off_speed (in synchronism, the true speed low-passed over 0.1 s outside ±2 % of the command), lost_sync (a commutation beyond ±30° of the true rotor since the last two turns in synchronism), stalled (below 10 % of the command), not_started (no two turns in synchronism since the last start), gave_up, non_finite"),
+            "The run verdict now, judged from the true rotor as drive-bench judges a run, on the recent past: running, off_speed (in synchronism, the true speed low-passed over 0.1 s outside ±2 % of the command), lost_sync (a commutation beyond ±30° of the true rotor since the last two turns in synchronism), stalled (below 10 % of the command), not_started (no two turns in synchronism since the last start), gave_up, non_finite, stopped (a command of 0 with the low-passed true speed below 5 rpm: told to stop, at rest)"),
+        // The loops and start-up of issue 36, appended after `verdict`.
+        int!("control.current_reads", control.current_reads, Some(1.0), Some(64.0),
+            "ADC reads of the shunt current averaged per PI update, spread over it one carrier period / n apart in phase (1: the published single read) [count]"),
+        real!("control.speed_window_s", control.speed_window_s, "s", Z, Some(1.0),
+            "Longest span of one speed measurement: it ends at the first FG edge past it (0: off, the published meter; else at least 1e-3)"),
+        var("control.gain_schedule", Boolean, Role::Parameter {
+            get: |c| f64::from(u8::from(c.control.gain_schedule)),
+            set: |c, v| {
+                c.control.gain_schedule = v != 0.0;
+                Ok(())
+            },
+        }, "", "Gain schedule on the measured speed (not in the published chip): the speed PI's error scaled by the duty d̂ the speed needs, the current PI's by 1/d̂; the gains are those at full duty"),
+        real!("control.schedule_min_duty", control.schedule_min_duty, "1", Some(1e-3), Some(1.0),
+            "Lowest duty the gain schedule assumes"),
+        var("control.stop_at_zero", Boolean, Role::Parameter {
+            get: |c| f64::from(u8::from(c.control.stop_at_zero)),
+            set: |c, v| {
+                c.control.stop_at_zero = v != 0.0;
+                Ok(())
+            },
+        }, "", "A speed command of 0 switches the bridge off and the chip waits, without aligning or restarting, until the command rises (not in the published chip)"),
+        real!("control.align_current_a", control.align_current_a, "A", Z, Some(10.0),
+            "Phase current the first alignment step regulates its duty to, held through the other two (0: the published fixed control.startup_duty)"),
+        real!("control.start_phase_current_a", control.start_phase_current_a, "A", Z, Some(10.0),
+            "Phase current commanded from the hand-over to the first speed measurement, as d × this shunt current (0: the published control.start_current_a)"),
     ]
 }
