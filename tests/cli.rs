@@ -348,7 +348,11 @@ fn a_plugin_strategy_is_listed_and_runs_like_the_builtin_it_reimplements() {
     );
 
     let (a, b) = (tmp("builtin.json"), tmp("plugin.json"));
-    let common = ["--speed-rpm", "2500", "--duration-s", "1.5", "--json"];
+    // 3 s, judged over 2–3 s: a start to 2500 rpm peaks ≈ 10 % over the command at 1.15 s
+    // and is within 2 % for good from ≈ 1.7 s, so a 1.5 s run (judged over 1.0–1.5 s) ends
+    // off-speed, built-in and plugin alike; the point here is that the two are identical
+    // on a run that settles.
+    let common = ["--speed-rpm", "2500", "--duration-s", "3", "--json"];
     let out = bench(
         &[
             &["run", "--strategy", "twelve-step-df"][..],
