@@ -59,10 +59,11 @@ pub struct ControlParams {
     pub anti_windup_gain: f64,
     /// Back-calculation anti-windup on the speed PI, at the current-command limit
     /// `current_limit_a`. The chip has none there (its speed PI only clamps the integrator
-    /// at the limit), yet this is the PI that saturates in every start and large speed
-    /// step: wound to the limit while the rotor accelerates, it overshoots the command by
-    /// ≈ 9 % at 3000 rpm and takes a second to unwind. Default true (a designer's choice);
-    /// false gives the published chip.
+    /// at the limit), yet this is the PI that saturates in large speed steps and under
+    /// loads it cannot carry, and unwinding a clamped integrator takes seconds at the
+    /// scheduled gains. Default true (a designer's choice); false gives the published chip.
+    /// (A start from standstill does not saturate it with the shipped gains: its +10 %
+    /// overshoot comes from the integrator building while the rotor runs up.)
     pub speed_anti_windup: bool,
     /// Back-calculation gain of the speed PI \[1\]: ui(k) = sat(ui(k−1) + Ki·e −
     /// k·(uc − limit)). Default 1: the integrator lands exactly on limit − Kp·e, the output
