@@ -48,7 +48,7 @@ pub const METRIC_DEFINITIONS: &[(&str, &str)] = &[
     ),
     (
         "min / max rpm",
-        "floor: the lowest command the drive holds (verdict `running`, no restart) after being turned down from a running speed; top: the highest it reaches from standstill; found by bisection to 3 % (floor also to 5 rpm), each with the verdict of the failed run beyond it",
+        "floor: the lowest command the drive holds (verdict `running`, no restart) after being turned down from a running speed; top: the highest it holds after being turned up from a running speed; found by bisection to 3 % (floor also to 5 rpm), each with the verdict of the failed run beyond it",
     ),
     (
         "anti-windup: overshoot / undershoot / settling",
@@ -635,7 +635,7 @@ fn markdown(c: &Comparison, config: &DriveConfig, crossings: &[String]) -> Strin
         .collect();
     let _ = writeln!(
         s,
-        "\nThe top-speed search is a bisection from the first of 3000, 2000, 4500, 1000, 6000 rpm that passes from standstill; it assumes the controllable speeds form one interval. Failed inside the range: {}.",
+        "\nThe top-speed search is a bisection from the first of 3000, 2000, 4500, 1000, 6000 rpm that passes from standstill, each top run turned up from it; it assumes the controllable speeds form one interval. Failed inside the range: {}.",
         if gaps.is_empty() {
             "none".to_string()
         } else {

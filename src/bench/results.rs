@@ -72,7 +72,7 @@ pub fn range_chart(c: &Comparison) -> String {
         })
         .collect();
     chart(
-        "Speed range: floor (turned down) to top (from standstill), judged from the true rotor",
+        "Speed range: floor (turned down) to top (turned up), judged from the true rotor",
         "speed [rpm]",
         &panels,
     )

@@ -53,7 +53,7 @@ enum Cmd {
     /// 6 not-started, 7 gave-up, 8 non-finite (1: an error, 2: a bad command line).
     Run(RunArgs),
     /// Finds the lowest speed a strategy holds after being turned down and the highest it
-    /// reaches from standstill, each judged by the verdict, with a 24-bit speed meter (one
+    /// holds after being turned up, each judged by the verdict, with a 24-bit speed meter (one
     /// that does not bind) and with the published 15-bit one.
     Range {
         /// Strategy name (see `drive-bench list`).
