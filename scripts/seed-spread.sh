@@ -81,6 +81,9 @@ if mode == "record":
             if k in skip or isinstance(v, (str, bool, list, dict)):
                 continue
             vals = [by_seed[s].get(k) for s in seeds]
+            if all(x is None for x in vals):
+                # Absent at every seed (no synchronism lost, say): nothing to compare.
+                continue
             if not all(numeric(x) for x in vals):
                 # serde_json writes a non-finite figure as null: no reference to keep.
                 print(f"error: {name}: {k} is not a finite number at every seed: {vals}")
