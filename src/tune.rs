@@ -94,6 +94,13 @@ pub struct Tuned {
     pub no_load_rpm: f64,
     /// Locked-rotor current V_DD/(2R) \[A\] (the schedule's I_lr).
     pub locked_rotor_a: f64,
+    /// Alignment current \[A\] and start phase current \[A\]: the built-in motor's
+    /// defaults scaled by (Kt₀/Kt)·(J/J₀), so that the rotor swings at the rate the timed
+    /// alignment steps (38 ms, 15 ms) were designed for (the angular acceleration per
+    /// ampere is Kt/J).
+    pub align_current_a: f64,
+    /// See `align_current_a`.
+    pub start_phase_current_a: f64,
     /// The margins at each speed of the range.
     pub margins: Vec<Margins>,
 }
@@ -103,8 +110,15 @@ impl Tuned {
     pub fn to_toml(&self) -> String {
         format!(
             "[control]\nspeed_kp = {:.3e}\nspeed_ki = {:.3e}\ncurrent_kp = 0.0\ncurrent_ki = {:.1}\n\
-             supervisor_no_load_rpm = {:.0}\nsupervisor_locked_rotor_a = {:.3}\n",
-            self.speed_kp, self.speed_ki, self.current_ki, self.no_load_rpm, self.locked_rotor_a
+             supervisor_no_load_rpm = {:.0}\nsupervisor_locked_rotor_a = {:.3}\n\
+             align_current_a = {:.3}\nstart_phase_current_a = {:.3}\n",
+            self.speed_kp,
+            self.speed_ki,
+            self.current_ki,
+            self.no_load_rpm,
+            self.locked_rotor_a,
+            self.align_current_a,
+            self.start_phase_current_a
         )
     }
 
@@ -117,6 +131,8 @@ impl Tuned {
         c.control.current_ki = self.current_ki;
         c.control.supervisor_no_load_rpm = self.no_load_rpm;
         c.control.supervisor_locked_rotor_a = self.locked_rotor_a;
+        c.control.align_current_a = self.align_current_a;
+        c.control.start_phase_current_a = self.start_phase_current_a;
         c
     }
 }
@@ -351,7 +367,14 @@ pub fn tune(config: &DriveConfig, from_rpm: f64, to_rpm: f64) -> Result<Tuned, T
     }
     let (_, speed_kp, speed_ki, margins) =
         best.ok_or(TuneError::Infeasible { from_rpm, to_rpm })?;
+    // The start-up currents for the same angular acceleration as the built-in motor's.
+    let builtin = LoopModel::new(&DriveConfig::default())?;
+    let scale = (builtin.kt / model.kt) * (model.j / builtin.j);
+    let start = ControlParams::default();
+    let current = |a: f64| (a * scale).clamp(0.01, 10.0);
     Ok(Tuned {
+        align_current_a: current(start.align_current_a),
+        start_phase_current_a: current(start.start_phase_current_a),
         speed_kp,
         speed_ki,
         current_ki: model.control.current_ki,
@@ -425,6 +448,35 @@ mod tests {
         let high = m.margins(3000.0).phase_margin_deg.unwrap();
         let low = m.margins(500.0).phase_margin_deg.unwrap();
         assert!(low < 0.0 && high > low + 30.0, "{low} {high}");
+    }
+
+    #[test]
+    fn a_second_motor_tuned_starts_and_holds_its_speed() {
+        // Flux ×1.5 and R ×2: with the built-in start-up currents (phase amperes, so 1.5×
+        // the torque) the timed alignment hands the rotor over near 290° and it does not
+        // start; tuned, its start-up currents give the built-in swing and its loops its
+        // own gain: running at 1000 and 6000 rpm.
+        let mut c = DriveConfig::default();
+        c.motor.flux_linkage_wb *= 1.5;
+        c.motor.resistance_ohm *= 2.0;
+        let m = LoopModel::new(&c).unwrap();
+        let t = tune(&c, 250.0, 0.8 * m.no_load_rpm()).unwrap();
+        assert!((t.align_current_a - 0.39 / 1.5).abs() < 1e-9);
+        let tuned = t.apply(&c);
+        for rpm in [1000.0, 6000.0] {
+            let s = crate::scenario::run(
+                &crate::scenario::Scenario::hold(tuned.clone(), rpm, 4.0),
+                |_| {},
+            )
+            .unwrap()
+            .summary;
+            assert_eq!(
+                s.verdict,
+                crate::verdict::Verdict::Running,
+                "{rpm}: {}",
+                s.verdict_reason
+            );
+        }
     }
 
     #[test]

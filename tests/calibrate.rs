@@ -19,8 +19,8 @@ fn no_load_rpm(c: &DriveConfig) -> f64 {
 
 /// The second motor: flux linkage ×1.5 and resistance ×2, configured as a user would for
 /// it: its own loops from `tune` (gains, and the no-load speed and locked-rotor current the
-/// gain schedule and the supervisor use, as a datasheet gives them), and the start-up
-/// currents scaled by the flux so that they give the built-in motor's torque.
+/// gain schedule and the supervisor use, as a datasheet gives them, and the start-up
+/// currents scaled by Kt₀/Kt·J/J₀ so that they give the built-in motor's swing).
 ///
 /// With the built-in motor's loops and figures instead, the run that limits ωm is too
 /// slow (1500 rpm held at −2.6 %; 1688 rpm passes at −1.7 %): the speed loop's failure,
@@ -30,12 +30,8 @@ fn no_load_rpm(c: &DriveConfig) -> f64 {
 /// no seed speed starts.
 fn second_motor() -> DriveConfig {
     let mut c = DriveConfig::default();
-    let flux = c.motor.flux_linkage_wb;
     c.motor.flux_linkage_wb *= 1.5;
     c.motor.resistance_ohm *= 2.0;
-    let torque = flux / c.motor.flux_linkage_wb;
-    c.control.align_current_a *= torque;
-    c.control.start_phase_current_a *= torque;
     let w0 = no_load_rpm(&c);
     bldc_drive::tune::tune(&c, 250.0, 0.8 * w0)
         .expect("the second motor's loops")
