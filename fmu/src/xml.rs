@@ -349,6 +349,13 @@ mod tests {
             "control.supervisor_blind_sectors",
             "strategy.lm_window_capped",
             "verdict",
+            "control.current_reads",
+            "control.speed_window_s",
+            "control.gain_schedule",
+            "control.schedule_min_duty",
+            "control.stop_at_zero",
+            "control.align_current_a",
+            "control.start_phase_current_a",
         ];
         let n = table().len();
         let tail: Vec<&str> = table()[n - appended.len()..]
