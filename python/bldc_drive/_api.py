@@ -63,7 +63,7 @@ class Result:
     @property
     def verdict(self) -> str:
         """The verdict: ``running``, ``off-speed``, ``lost-sync``, ``stalled``,
-        ``not-started``, ``gave-up`` or ``non-finite``."""
+        ``not-started``, ``gave-up``, ``non-finite`` or ``stopped`` (told 0 rpm, at rest)."""
         return self.summary["verdict"]
 
     def __repr__(self) -> str:
