@@ -224,6 +224,10 @@ pub struct BldcPlant {
     /// or the last committed step's end, from which the angle now is reached by angle
     /// addition (any consistent triple is valid).
     base_hint: (f64, f64, f64),
+    /// Set by a restore: the first step checks that the kept solution `start` is the
+    /// state's and solves it afresh if not (a forged state that passed every rule), so
+    /// that the step's own check never meets a restored inconsistency (derived; not saved).
+    verify_start: bool,
     /// Whether the committed state `x` is the last step's end, with neither the state nor
     /// the dynamics changed since (whatever changes either clears it): the next step then
     /// takes the derivative there from that step's own network solution (`start`) and
@@ -290,6 +294,7 @@ impl BldcPlant {
             reported: Ticks::ZERO,
             lookahead: None,
             base_hint: (0.0, 0.0, 1.0),
+            verify_start: false,
             fsal: false,
             end_angle: None,
             stats: PlantStats::default(),
@@ -467,6 +472,43 @@ impl BldcPlant {
     }
 
     /// The network's solution for a state inside the step that starts at `base`.
+    /// Whether the kept network solution `start` is the one the state `x0` (at the angle
+    /// `b0`) gives, within 1e-9 (a state gone non-finite has none to compare: NaN ≠ NaN).
+    fn start_solves(&self, x0: &State, b0: (f64, f64, f64)) -> bool {
+        self.solves(x0, b0, &self.start)
+    }
+
+    /// Whether `sol` is the network's solution at the state `x` (angle `b`), within 1e-9.
+    fn solves(&self, x: &State, b: (f64, f64, f64), sol: &Solution) -> bool {
+        x.iter().any(|v| !v.is_finite()) || {
+            let s = self.solve_near(x, b);
+            let (a, b) = (s.di.to_array(), sol.di.to_array());
+            (0..3).all(|k| (a[k] - b[k]).abs() <= 1e-9 * (1.0 + a[k].abs()))
+                && s.powers.supply == sol.powers.supply
+        }
+    }
+
+    /// For a restore: the kept solution is the state's wherever the next step will use
+    /// it (where it carries the last step's end derivative instead, it is not read).
+    pub(crate) fn start_is_fresh(&self) -> bool {
+        // A step integrated ahead is committed as it stands: its end solution must be
+        // its end state's, as `start` becomes when it is.
+        if let Some(la) = &self.lookahead
+            && !self.solves(&la.x1, (la.x1[THETA], la.sc1.0, la.sc1.1), &la.s1)
+        {
+            return false;
+        }
+        let x0 = self.x;
+        if self.fsal && self.end_angle.is_some() {
+            return true;
+        }
+        let b0 = match self.end_angle {
+            Some(e) if e.0 == x0[THETA] && self.stats.steps % ANCHOR != 0 => e,
+            _ => Self::base(&x0),
+        };
+        self.start_solves(&x0, b0)
+    }
+
     fn solve_near(&self, x: &State, base: (f64, f64, f64)) -> Solution {
         let f = emf::shape_with(&self.shape, x[THETA], emf::sin_cos_near(x[THETA], base));
         let k = self.lambda * self.pp * x[OMEGA];
@@ -1455,15 +1497,13 @@ impl BldcPlant {
             let angle = match (std::mem::take(&mut self.fsal), self.end_angle) {
                 (true, Some(e)) => e,
                 _ => {
+                    if std::mem::take(&mut self.verify_start) && !self.start_solves(&x0, b0) {
+                        self.start = self.solve_near(&x0, b0);
+                    }
                     // A state gone non-finite has no solution to compare (NaN ≠ NaN); the
                     // run goes on and its summary reports it.
                     debug_assert!(
-                        x0.iter().any(|v| !v.is_finite()) || {
-                            let s = self.solve_near(&x0, b0);
-                            let (a, b) = (s.di.to_array(), self.start.di.to_array());
-                            (0..3).all(|k| (a[k] - b[k]).abs() <= 1e-9 * (1.0 + a[k].abs()))
-                                && s.powers.supply == self.start.powers.supply
-                        },
+                        self.start_solves(&x0, b0),
                         "the network solution at the step's start is stale"
                     );
                     (x0[THETA], b0.1, b0.2)

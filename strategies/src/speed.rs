@@ -61,7 +61,8 @@ impl SpeedMeter {
         };
         self.edges += 1;
         let clk = clocks::SPEED_COUNTER.0;
-        let elapsed = now.0 / clk - start.0 / clk;
+        // Saturating: a restored start later than now (a forged state) reads as no time.
+        let elapsed = (now.0 / clk).saturating_sub(start.0 / clk);
         if self.edges == self.periods || elapsed >= self.window {
             let n = elapsed.clamp(1, self.max_count);
             let numerator = if self.edges == self.periods {

@@ -159,6 +159,10 @@ impl Persist for BldcPlant {
         self.inertia = self.params.motor.inertia_kgm2 + self.load.inertia_kgm2;
         self.inv_inertia = 1.0 / self.inertia;
         self.lin = circuit::state_index(&self.modes);
+        self.verify_start = true;
+        check(self.start_is_fresh(), || {
+            "start (rule: the network's solution at the restored state, within 1e-9)".into()
+        })?;
         r.field("cmp", &mut self.cmp)?;
         r.field("cur", &mut self.cur)?;
         self.cmp.check_against(self.tick.0.0, self.longest_step())?;
