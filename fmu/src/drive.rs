@@ -276,7 +276,7 @@ impl Drive {
         true
     }
 
-    /// The value of `input` in force (as [`Drive::apply`] took it).
+    /// The value of `input` in force (as `Drive::apply` took it).
     pub fn applied(&self, input: Input) -> f64 {
         self.applied[slot(input)]
     }
