@@ -7,13 +7,16 @@ pub mod pool;
 pub mod range;
 pub mod report;
 pub mod results;
+pub mod spectrum;
 pub mod startup;
 pub mod svg;
+pub mod vibration;
 
 use crate::config::DriveConfig;
 use crate::metrics::{Disturbance, StepResponse, disturbance, held_above, step_response};
 use crate::profile::{LoadProfile, Profile};
 use crate::scenario::{RunError, Scenario, Summary, TraceRow, TraceSpec, run};
+use drive_core::pwm::PwmSchemeKind;
 use range::Range;
 use serde::Serialize;
 use std::time::Instant;
@@ -90,6 +93,13 @@ pub struct Plan {
     pub grid_duration_s: f64,
     /// Grid speed whose run also records the crossing trace \[rpm\].
     pub trace_rpm: f64,
+    /// Speeds of the torque spectra, low and medium \[rpm\]: each strategy started at
+    /// `trace_rpm`, turned down (or held) there as the range's floors are
+    /// ([`range::turned`]), its torque traced over the judged window.
+    pub spectrum_rpm: Vec<f64>,
+    /// The variant whose spectra are also taken with complementary chopping, and the
+    /// dead time that scheme needs \[s\]: the experiment that names the chopping's lines.
+    pub spectrum_complementary: Option<(String, f64)>,
     /// The anti-windup comparison: runs that drive a PI into saturation.
     pub step: StepPlan,
     /// Load step: speed \[rpm\], torque [N·m], at \[s\], run length \[s\].
@@ -110,6 +120,8 @@ impl Default for Plan {
             grid_rpm: vec![1000.0, 2000.0, 3000.0, 4500.0, 6000.0, 9000.0],
             grid_duration_s: 3.0,
             trace_rpm: 3000.0,
+            spectrum_rpm: vec![1000.0, 3000.0],
+            spectrum_complementary: Some(("twelve-step-df".into(), 200e-9)),
             step: StepPlan::default(),
             load: (3000.0, 4e-4, 2.5, 4.0),
             ranges: true,
@@ -176,6 +188,17 @@ impl Default for StepPlan {
                     at_s: 3.0,
                     to_rpm: 6000.0,
                     duration_s: 5.0,
+                },
+                AwCase {
+                    name: "step 6000 → 1500 rpm".into(),
+                    saturates: "both PIs at their lower limits (no current, no duty): each integrator is clamped there, so neither winds up".into(),
+                    speed_rpm: Profile::constant(3000.0)
+                        .step_to(1.5, 6000.0)
+                        .step_to(3.5, 1500.0),
+                    load_nm: Profile::default(),
+                    at_s: 3.5,
+                    to_rpm: 1500.0,
+                    duration_s: 8.0,
                 },
             ],
         }
@@ -338,6 +361,21 @@ pub struct LoadRun {
     pub speed: Vec<(f64, f64)>,
 }
 
+/// A steady run's torque spectrum, with the run's vibration figures.
+#[derive(Clone, Debug, Serialize)]
+pub struct SpectrumRun {
+    /// Variant label.
+    pub variant: String,
+    /// Speed command \[rpm\].
+    pub rpm: f64,
+    /// The PWM scheme of the run (the config's, or complementary for the experiment).
+    pub pwm_scheme: String,
+    /// The run's summary (verdict, low-band ripple, commutation surge).
+    pub summary: Summary,
+    /// The spectrum (None: the run was not `running`, or too few turns).
+    pub spectrum: Option<spectrum::Spectrum>,
+}
+
 /// A fine trace around zero crossings in steady state.
 #[derive(Clone, Debug)]
 pub struct CrossingTrace {
@@ -364,6 +402,8 @@ pub struct Comparison {
     pub loads: Vec<LoadRun>,
     /// Start-up Monte-Carlo per strategy.
     pub startups: Vec<StartupResult>,
+    /// Torque spectra per strategy and speed.
+    pub spectra: Vec<SpectrumRun>,
     /// Crossing traces (not in the JSON; plotted).
     #[serde(skip)]
     pub crossings: Vec<CrossingTrace>,
@@ -387,6 +427,7 @@ enum Job {
     Step(usize, usize, AntiWindup),
     Load(usize),
     Startup(usize),
+    Spectrum(usize, f64, bool),
 }
 
 enum Done {
@@ -395,6 +436,7 @@ enum Done {
     Step(StepRun),
     Load(LoadRun),
     Startup(StartupResult),
+    Spectrum(SpectrumRun),
 }
 
 /// Runs `plan` for every variant on `base` (the motor, power stage, sensing and control
@@ -416,6 +458,16 @@ pub fn compare(
         }
         for &rpm in &plan.grid_rpm {
             jobs.push(Job::Grid(v, rpm));
+        }
+        let complementary = plan
+            .spectrum_complementary
+            .as_ref()
+            .is_some_and(|x| x.0 == variant.label);
+        for &rpm in &plan.spectrum_rpm {
+            jobs.push(Job::Spectrum(v, rpm, false));
+            if complementary {
+                jobs.push(Job::Spectrum(v, rpm, true));
+            }
         }
         if plan.step.variants.contains(&variant.label) {
             for c in 0..plan.step.cases.len() {
@@ -462,6 +514,43 @@ pub fn compare(
                     rows,
                 });
                 Done::Grid(point, trace)
+            }
+            Job::Spectrum(v, rpm, complementary) => {
+                let mut c = config_of(v);
+                if let (true, Some((_, dead_time_s))) =
+                    (complementary, &plan.spectrum_complementary)
+                {
+                    c.power_stage.pwm_scheme = PwmSchemeKind::Complementary;
+                    c.power_stage.dead_time_s = *dead_time_s;
+                }
+                let mut sc = range::turned(&c, plan.trace_rpm, rpm, range::TURN_DOWN_S);
+                sc.plugin = variants[v].plugin.clone();
+                sc.trace = Some(TraceSpec {
+                    every_s: spectrum::TRACE_EVERY_S,
+                    from_s: sc.steady_from_s,
+                    to_s: sc.duration_s,
+                });
+                let mut samples = Vec::new();
+                let out = run(&sc, |r| samples.push(spectrum::sample(r)))?;
+                // A plugin's steps are not known here: its lines are named on twelve
+                // (a six-step plugin's commutation then reads "every 2 steps").
+                let steps = match variants[v].plugin {
+                    Some(_) => 12,
+                    None => variants[v].strategy.name.steps_per_turn(),
+                };
+                let spectrum = out
+                    .summary
+                    .verdict
+                    .is_running()
+                    .then(|| spectrum::torque_spectrum(&samples, steps))
+                    .flatten();
+                Done::Spectrum(SpectrumRun {
+                    variant: label(v),
+                    rpm,
+                    pwm_scheme: c.power_stage.pwm_scheme.name().to_string(),
+                    summary: out.summary,
+                    spectrum,
+                })
             }
             Job::Range(v, m) => Done::Range(range::search(
                 &m.apply(&config_of(v)),
@@ -568,6 +657,7 @@ pub fn compare(
         steps: Vec::new(),
         loads: Vec::new(),
         startups: Vec::new(),
+        spectra: Vec::new(),
         crossings: Vec::new(),
         wall_s: 0.0,
         threads,
@@ -582,6 +672,7 @@ pub fn compare(
             Done::Step(s) => cmp.steps.push(s),
             Done::Load(l) => cmp.loads.push(l),
             Done::Startup(x) => cmp.startups.push(x),
+            Done::Spectrum(x) => cmp.spectra.push(x),
         }
     }
     cmp.wall_s = wall.elapsed().as_secs_f64();

@@ -195,6 +195,7 @@ pub fn write_folder(
             super::results::range_chart(c),
         ));
     }
+    figures.extend(super::vibration::charts(c));
     let mut crossing_files = Vec::new();
     for t in &c.crossings {
         let name = format!("crossing_{}.svg", t.variant.replace('@', "_"));
@@ -678,7 +679,7 @@ fn markdown(c: &Comparison, config: &DriveConfig, crossings: &[String]) -> Strin
     }
     let _ = writeln!(
         s,
-        "\n## Anti-windup\n\nEach case drives a PI into saturation; it runs with anti-windup off, on the current PI only (the chip's) and on both PIs (the speed PI's is a model option). The current PI saturates only where the current limit needs more than full voltage (near top speed); below that the speed PI is the one that saturates, at the current limit, and the chip's anti-windup cannot act. Peak: beyond the command in the direction of the change (an undershoot after a step down). The chip has no braking state: after a step down the rotor coasts on friction.\n"
+        "\n## Anti-windup\n\nEach case drives a PI into saturation; it runs with anti-windup off, on the current PI only (the chip's) and on both PIs (the speed PI's is a model option). The current PI saturates only where the current limit needs more than full voltage (near top speed); below that the speed PI is the one that saturates, at the current limit, and the chip's anti-windup cannot act. At the lower limits (a step down: no current asked, no duty given) both integrators are clamped at zero, so there is nothing to wind up and anti-windup cannot act after the step (the chip's back-calculation acts on the upper limit only, strategies/src/pi.rs): what differs between its rows comes from the start-up and the step up before it. Peak: beyond the command in the direction of the change (an undershoot after a step down). The chip has no braking state: after a step down the rotor coasts on friction.\n"
     );
     for (k, case) in c.plan.step.cases.iter().enumerate() {
         let _ = writeln!(
@@ -743,6 +744,7 @@ fn markdown(c: &Comparison, config: &DriveConfig, crossings: &[String]) -> Strin
         );
     }
     startup_section(c, &mut s);
+    s.push_str(&super::vibration::section(c));
     let _ = writeln!(s, "\n## Plots\n");
     for f in [
         "speed_step.svg",

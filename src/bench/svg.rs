@@ -102,8 +102,22 @@ fn escape(s: &str) -> String {
         .replace('>', "&gt;")
 }
 
+/// A labelled vertical line across a panel (a known frequency on a spectrum).
+#[derive(Clone, Debug)]
+pub struct Mark {
+    /// Where \[x units\].
+    pub x: f64,
+    /// Label, written up the line.
+    pub label: String,
+}
+
 /// Renders `panels` stacked, under `title`, with the shared `x_label`.
 pub fn chart(title: &str, x_label: &str, panels: &[Panel]) -> String {
+    chart_marked(title, x_label, panels, &[])
+}
+
+/// [`chart`] with `marks[k]` drawn on panel k (panels past the end of `marks` get none).
+pub fn chart_marked(title: &str, x_label: &str, panels: &[Panel], marks: &[Vec<Mark>]) -> String {
     let h = TOP + panels.len() as f64 * (PANEL_H + GAP) + 30.0;
     let mut s = String::new();
     let _ = writeln!(
@@ -164,6 +178,21 @@ pub fn chart(title: &str, x_label: &str, panels: &[Panel]) -> String {
                 fmt_tick(x, dx)
             );
             x += dx;
+        }
+        for m in marks.get(k).into_iter().flatten() {
+            if !(x0..=x1).contains(&m.x) {
+                continue;
+            }
+            let _ = writeln!(
+                s,
+                r##"<line x1="{0:.1}" x2="{0:.1}" y1="{1}" y2="{2}" stroke="#999" stroke-dasharray="3 3"/><text transform="translate({3:.1},{4}) rotate(-90)" text-anchor="end" font-size="10" fill="#555">{5}</text>"##,
+                px(m.x),
+                top,
+                top + PANEL_H,
+                px(m.x) - 3.0,
+                top + 4.0,
+                escape(&m.label)
+            );
         }
         // A label longer than the panel is tall goes on two or more lines (a case name
         // with its unit would otherwise run into the next panel's label).
@@ -313,6 +342,42 @@ mod tests {
         );
         assert_eq!(svg.matches("<circle").count(), 1);
         assert!(!svg.contains("d=\" L") && !svg.contains("d=\"L"), "{svg}");
+    }
+
+    #[test]
+    fn marks_are_drawn_on_their_panel_inside_the_x_range_only() {
+        let panel = || Panel {
+            y_label: "y".into(),
+            series: vec![Series {
+                name: "a".into(),
+                points: vec![(0.0, 0.0), (10.0, 1.0)],
+                ..Series::default()
+            }],
+        };
+        let marks = vec![
+            Vec::new(),
+            vec![
+                Mark {
+                    x: 5.0,
+                    label: "PI <update>".into(),
+                },
+                Mark {
+                    x: 50.0,
+                    label: "outside".into(),
+                },
+            ],
+        ];
+        let svg = chart_marked("t", "x", &[panel(), panel()], &marks);
+        assert_eq!(svg.matches("stroke-dasharray=\"3 3\"").count(), 1);
+        assert!(svg.contains("PI &lt;update&gt;") && !svg.contains("outside"));
+        // x = 5 is the middle of the padded range: the plot's centre.
+        let mid = LEFT + (W - LEFT - RIGHT) / 2.0;
+        assert!(
+            svg.contains(&format!("x1=\"{mid:.1}\" x2=\"{mid:.1}\"")),
+            "{svg}"
+        );
+        // On the second panel, below the first.
+        assert!(svg.contains(&format!("y1=\"{}\"", TOP + PANEL_H + GAP)));
     }
 
     #[test]

@@ -670,27 +670,24 @@ impl Chip {
         // The duty the believed speed needs at the last current command (1 without the
         // schedule): scaling an error by it scales that PI's gains, and its integrator, in
         // output units, keeps its value.
+        // Until the first speed reading the current command is the start current.
+        let start = self.starting().then(|| self.start_current());
         let d = if self.control.gain_schedule {
             let rpm = if self.speed.measurements() > 0 {
                 f64::from(self.speed.rpm())
             } else {
                 shifter_rpm.unwrap_or(0.0)
             };
-            // Until the first speed reading the current command is the start current.
-            let i = if self.starting() {
-                self.start_current()
-            } else {
-                self.i_ref
-            };
-            scheduled_duty(&self.control, rpm, i)
+            scheduled_duty(&self.control, rpm, start.unwrap_or(self.i_ref))
         } else {
             1.0
         };
-        let i_ref = if self.starting() {
-            self.start_current()
-        } else {
-            let speed_error = self.speed_ref_rpm - f64::from(self.speed.rpm());
-            self.speed_pi.update(speed_error * d)
+        let i_ref = match start {
+            Some(i) => i,
+            None => {
+                let speed_error = self.speed_ref_rpm - f64::from(self.speed.rpm());
+                self.speed_pi.update(speed_error * d)
+            }
         };
         self.i_ref = i_ref;
         let u = self.current_pi.update((i_ref - i) / d);

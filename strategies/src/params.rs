@@ -543,6 +543,15 @@ impl StrategyName {
             StrategyName::TwelveStepDf => Some(GuardKind::Df),
         }
     }
+
+    /// Commutation steps per electrical turn: 6 for six-step, 12 for twelve-step.
+    pub fn steps_per_turn(self) -> u32 {
+        if self == StrategyName::SixStep120 {
+            6
+        } else {
+            12
+        }
+    }
 }
 
 impl fmt::Display for StrategyName {
