@@ -2,6 +2,7 @@
 //! same scenarios. The `drive-bench` binary is a thin front end over this module.
 
 pub mod calibrate;
+pub mod drift;
 pub mod html;
 pub mod pool;
 pub mod range;
@@ -97,6 +98,12 @@ pub struct Plan {
     /// `trace_rpm`, turned down (or held) there as the range's floors are
     /// ([`range::turned`]), its torque traced over the judged window.
     pub spectrum_rpm: Vec<f64>,
+    /// Whether each strategy is ramped down through its floor ([`drift`]).
+    pub drift: bool,
+    /// The variant also ramped down with the comparator's two RC filters matched (the
+    /// neutral's time constant set to the phase's): the experiment that names the early
+    /// commutation at low speed.
+    pub drift_matched: Option<String>,
     /// The variant whose spectra are also taken with complementary chopping, and the
     /// dead time that scheme needs \[s\]: the experiment that names the chopping's lines.
     pub spectrum_complementary: Option<(String, f64)>,
@@ -121,6 +128,8 @@ impl Default for Plan {
             grid_duration_s: 3.0,
             trace_rpm: 3000.0,
             spectrum_rpm: vec![1000.0, 3000.0],
+            drift: true,
+            drift_matched: Some("twelve-step-df".into()),
             spectrum_complementary: Some(("twelve-step-df".into(), 200e-9)),
             step: StepPlan::default(),
             load: (3000.0, 4e-4, 2.5, 4.0),
@@ -404,6 +413,8 @@ pub struct Comparison {
     pub startups: Vec<StartupResult>,
     /// Torque spectra per strategy and speed.
     pub spectra: Vec<SpectrumRun>,
+    /// Ramps down through the floors.
+    pub drifts: Vec<drift::DriftRun>,
     /// Crossing traces (not in the JSON; plotted).
     #[serde(skip)]
     pub crossings: Vec<CrossingTrace>,
@@ -428,6 +439,7 @@ enum Job {
     Load(usize),
     Startup(usize),
     Spectrum(usize, f64, bool),
+    Drift(usize, bool),
 }
 
 enum Done {
@@ -437,6 +449,7 @@ enum Done {
     Load(LoadRun),
     Startup(StartupResult),
     Spectrum(SpectrumRun),
+    Drift(drift::DriftRun),
 }
 
 /// Runs `plan` for every variant on `base` (the motor, power stage, sensing and control
@@ -458,6 +471,13 @@ pub fn compare(
         }
         for &rpm in &plan.grid_rpm {
             jobs.push(Job::Grid(v, rpm));
+        }
+        // A plugin's table is not known here, so its commutations cannot be judged.
+        if plan.drift && variant.plugin.is_none() {
+            jobs.push(Job::Drift(v, false));
+            if plan.drift_matched.as_ref() == Some(&variant.label) {
+                jobs.push(Job::Drift(v, true));
+            }
         }
         let complementary = plan
             .spectrum_complementary
@@ -551,6 +571,29 @@ pub fn compare(
                     summary: out.summary,
                     spectrum,
                 })
+            }
+            Job::Drift(v, matched) => {
+                let mut c = range::Meter::WIDE.apply(&config_of(v));
+                let cmp = &mut c.sensing.comparator;
+                if matched {
+                    cmp.neutral_filter_tau_s = cmp.phase_filter_tau_s;
+                }
+                let change = if matched {
+                    format!(
+                        "neutral filter τ = phase filter τ = {:.2} µs",
+                        cmp.phase_filter_tau_s * 1e6
+                    )
+                } else {
+                    String::new()
+                };
+                let s = &variants[v].strategy;
+                let table = match s.name {
+                    StrategyName::SixStep120 => strategies::Table::SixStep,
+                    _ => strategies::Table::TwelveStep {
+                        conduction_deg: s.conduction_deg(),
+                    },
+                };
+                Done::Drift(drift::run_drift(&c, table, &label(v), &change)?)
             }
             Job::Range(v, m) => Done::Range(range::search(
                 &m.apply(&config_of(v)),
@@ -658,6 +701,7 @@ pub fn compare(
         loads: Vec::new(),
         startups: Vec::new(),
         spectra: Vec::new(),
+        drifts: Vec::new(),
         crossings: Vec::new(),
         wall_s: 0.0,
         threads,
@@ -673,6 +717,7 @@ pub fn compare(
             Done::Load(l) => cmp.loads.push(l),
             Done::Startup(x) => cmp.startups.push(x),
             Done::Spectrum(x) => cmp.spectra.push(x),
+            Done::Drift(x) => cmp.drifts.push(x),
         }
     }
     cmp.wall_s = wall.elapsed().as_secs_f64();

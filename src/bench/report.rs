@@ -196,6 +196,9 @@ pub fn write_folder(
         ));
     }
     figures.extend(super::vibration::charts(c));
+    if !c.drifts.is_empty() {
+        figures.push((super::drift::CHART.to_string(), super::drift::chart(c)));
+    }
     let mut crossing_files = Vec::new();
     for t in &c.crossings {
         let name = format!("crossing_{}.svg", t.variant.replace('@', "_"));
@@ -744,6 +747,7 @@ fn markdown(c: &Comparison, config: &DriveConfig, crossings: &[String]) -> Strin
         );
     }
     startup_section(c, &mut s);
+    s.push_str(&super::drift::section(c, config));
     s.push_str(&super::vibration::section(c));
     let _ = writeln!(s, "\n## Plots\n");
     for f in [

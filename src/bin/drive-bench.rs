@@ -355,6 +355,7 @@ fn compare(a: CompareArgs, plugins: Vec<PluginLibrary>) -> Result<(), String> {
         plan.ranges = false;
         plan.startup.0 = 0;
         plan.spectrum_rpm = vec![plan.trace_rpm];
+        plan.drift = false;
     }
     let threads = a.threads.map_or_else(pool::default_threads, usize::from);
     // The report folder is made before minutes of work, not after.
