@@ -352,7 +352,10 @@ impl BldcPlant {
     }
 
     /// Sets rotor angle θe \[rad\] and speed \[rpm\]; `lock` holds the speed constant from now on
-    /// (a dynamometer), otherwise the rotor is free. The comparators start afresh, settled
+    /// (a dynamometer), otherwise the rotor is free. A speed up to the motor's no-load
+    /// speed at the largest supply the rules allow, [`crate::params::MAX_SUPPLY_V`]/((P/2)·λr)
+    /// (2.1e6 rpm for the built-in motor), is one a state restores with: beyond it, what
+    /// the largest torques add since t = 0 is all a restored speed may exceed it by. The comparators start afresh, settled
     /// on the terminals of the new state (a rotor that jumps has no filter history): their
     /// toggle history and work counters restart from zero.
     pub fn set_rotor(&mut self, theta_e: f64, speed_rpm: f64, lock: bool) {
@@ -488,25 +491,26 @@ impl BldcPlant {
         }
     }
 
-    /// For a restore: the kept solution is the state's wherever the next step will use
-    /// it (where it carries the last step's end derivative instead, it is not read).
+    /// For a restore: the kept solutions are the network's at the states they are kept
+    /// for, in every field (see `BldcPlant::solution_is`): `start` at the committed state
+    /// (at the last step's end angle when it carries that step's end derivative, first
+    /// same as last), and a step integrated ahead's at its end.
     pub(crate) fn start_is_fresh(&self) -> bool {
         // A step integrated ahead is committed as it stands: its end solution must be
         // its end state's, as `start` becomes when it is.
         if let Some(la) = &self.lookahead
-            && !self.solves(&la.x1, (la.x1[THETA], la.sc1.0, la.sc1.1), &la.s1)
+            && !self.solution_is(&la.x1, (la.x1[THETA], la.sc1.0, la.sc1.1), &la.s1)
         {
             return false;
         }
         let x0 = self.x;
-        if self.fsal && self.end_angle.is_some() {
-            return true;
-        }
-        let b0 = match self.end_angle {
+        let angle = match self.end_angle {
+            Some(e) if self.fsal => e,
             Some(e) if e.0 == x0[THETA] && self.stats.steps % ANCHOR != 0 => e,
             _ => Self::base(&x0),
         };
-        self.start_solves(&x0, b0)
+        self.solution_is(&x0, (x0[THETA], angle.1, angle.2), &self.start)
+            || (self.fsal && self.solution_is(&x0, angle, &self.start))
     }
 
     fn solve_near(&self, x: &State, base: (f64, f64, f64)) -> Solution {

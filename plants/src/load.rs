@@ -37,7 +37,7 @@ pub struct Load {
 
 /// The largest load torque term \[N·m\]: about 30 times the built-in motor's locked-rotor
 /// torque, far beyond what any drive this model describes can turn.
-const MAX_TORQUE_NM: f64 = 1.0;
+pub(crate) const MAX_TORQUE_NM: f64 = 1.0;
 
 impl Load {
     /// Checks every rule; the error names the first term that breaks one.

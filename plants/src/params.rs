@@ -198,6 +198,10 @@ impl MotorParams {
     }
 }
 
+/// The highest supply `power_stage.supply_v` takes \[V\]; a supply changed during a run
+/// (`BldcPlant::set_supply_v`) stays within it too.
+pub const MAX_SUPPLY_V: f64 = 1000.0;
+
 /// Six-switch bridge with anti-parallel diodes and a ground shunt.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
@@ -249,7 +253,7 @@ impl PowerStageParams {
             "power_stage.supply_v",
             self.supply_v,
             1e-3,
-            1000.0,
+            MAX_SUPPLY_V,
             "must be > 0 and <= 1000 V",
         )?;
         // Upper bounds: far beyond any real part, low enough that the network stays finite.

@@ -2,11 +2,14 @@
 //! time, gates, conduction, load, the step integrated ahead and the sensing chains. The
 //! parameters, the network's forms and what follows from the load are never read back.
 
-use super::{BldcPlant, Lookahead, State};
+use super::{BldcPlant, Lookahead, OMEGA, State, THETA};
 use crate::circuit::{self, Conduction, Powers, Solution};
-use crate::load::Load;
+use crate::emf;
+use crate::load::{Load, MAX_TORQUE_NM};
+use crate::params::{BackEmfShape, MAX_SUPPLY_V};
 use drive_core::state::{Persist, Reader, Writer, check};
 use drive_core::{TICK_S, Ticks, persist_enum, persist_fields};
+use std::f64::consts::TAU;
 
 persist_enum!(Conduction {
     SwitchHigh,
@@ -94,6 +97,7 @@ impl Persist for Lookahead {
         restore_x(r, "f1", &mut f1)?;
         r.field("sc1", &mut self.sc1)?;
         unit_circle("sc1", self.sc1)?;
+        zeros("f1", &f1)?;
         r.field("event", &mut self.event)
     }
 }
@@ -146,8 +150,14 @@ impl Persist for BldcPlant {
         let (mut x, mut f) = (State::zeros(), State::zeros());
         restore_x(r, "fsal.0", &mut x)?;
         restore_x(r, "fsal.1", &mut f)?;
-        // A derivative saved for another state than the committed one is not used.
-        self.fsal = some && x == self.x;
+        // As saved: the committed state when the flag is set, zeros otherwise.
+        check(x == if some { self.x } else { State::zeros() }, || {
+            format!(
+                "fsal.0 (rule: the committed state x when fsal = {some}, as saved; zeros without it)"
+            )
+        })?;
+        zeros("fsal.1", &f)?;
+        self.fsal = some;
         r.field("end_angle", &mut self.end_angle)?;
         if let Some((_, s, c)) = self.end_angle {
             unit_circle("end_angle", (s, c))?;
@@ -160,6 +170,7 @@ impl Persist for BldcPlant {
         self.inv_inertia = 1.0 / self.inertia;
         self.lin = circuit::state_index(&self.modes);
         self.verify_start = true;
+        self.check_bounds()?;
         check(self.start_is_fresh(), || {
             "start (rule: the network's solution at the restored state, within 1e-9)".into()
         })?;
@@ -170,6 +181,24 @@ impl Persist for BldcPlant {
     }
 }
 
+/// The currents and the speed of a state within `b`.
+fn check_dynamic(name: &str, x: &State, b: &Bounds) -> Result<(), String> {
+    for k in 0..3 {
+        check(x[k].abs() <= b.current, || {
+            format!(
+                "{name}.[{k}] = {} (rule: a winding current |i| <= {} A, what the supply and the back-EMF drive through R, see BldcPlant::bounds)",
+                x[k], b.current
+            )
+        })?;
+    }
+    check(x[OMEGA].abs() <= b.speed, || {
+        format!(
+            "{name}.[{OMEGA}] = {} (rule: a rotor speed |ωm| <= {} rad/s, the no-load speed at the largest supply and what the largest torques add since t = 0, see BldcPlant::bounds)",
+            x[OMEGA], b.speed
+        )
+    })
+}
+
 /// A sine and cosine pair of one angle (they are carried from step to step).
 fn unit_circle(name: &str, (s, c): (f64, f64)) -> Result<(), String> {
     check((s * s + c * c - 1.0).abs() < 1e-9, || {
@@ -177,7 +206,181 @@ fn unit_circle(name: &str, (s, c): (f64, f64)) -> Result<(), String> {
     })
 }
 
+/// A state written as zeros, where a derivative that follows from the rest was kept.
+fn zeros(name: &str, x: &State) -> Result<(), String> {
+    match x.iter().position(|&v| v != 0.0) {
+        None => Ok(()),
+        Some(k) => Err(format!(
+            "{name}.[{k}] = {} (rule: 0, as saved: the derivative follows from the state)",
+            x[k]
+        )),
+    }
+}
+
+/// Within 1e-9 of `want`, relative above 1: what the run computed and what a restore
+/// computes again from the same values agree to rounding (the sine and cosine carried by
+/// rotations drift by less than 9e-12, see `bldc::ANCHOR`).
+fn close(got: f64, want: f64) -> bool {
+    (got - want).abs() <= 1e-9 * (1.0 + want.abs())
+}
+
+/// The bounds physics puts on a plant's state at time t \[s\], from its parameters (see
+/// [`BldcPlant::bounds`]). Generous on purpose: a run reaches none of them, and a state
+/// beyond them is no run's.
+#[derive(Copy, Clone, Debug)]
+pub(crate) struct Bounds {
+    /// |ωm| [rad/s].
+    pub(crate) speed: f64,
+    /// |e_x| \[V\].
+    pub(crate) emf: f64,
+    /// |i_x| of each winding \[A\].
+    pub(crate) current: f64,
+    /// |v| of every terminal, the neutral, and the sensing filters they drive \[V\].
+    pub(crate) volts: f64,
+}
+
 impl BldcPlant {
+    /// The bounds of a state at time `t` \[s\] (see [`Bounds`]):
+    ///
+    /// - the bridge puts at most V = [`MAX_SUPPLY_V`] + 2·V_f across a winding (the supply
+    ///   may be changed during a run, up to its rule's bound, and what it drove outlasts it);
+    /// - the torque that speeds the rotor up is the load's largest, [`MAX_TORQUE_NM`],
+    ///   and the motor's while motoring, at most three windings each carrying what V drives
+    ///   through R: 3·(P/2)·λr·f̂·V/R (f̂ the back-EMF shape's peak); friction and the passive
+    ///   load terms only brake. Over J (a load's inertia only adds to it) that is the
+    ///   fastest acceleration, so from the no-load speed at V (the fastest a rotor is set
+    ///   to: [`BldcPlant::set_rotor`]) the speed is within
+    ///   |ωm| ≤ [`MAX_SUPPLY_V`]/((P/2)·λr) + a·t (an overhauling load spins a light rotor
+    ///   far beyond its no-load speed: 6.6e6 rpm after 2 s at −1 N·m on the built-in one);
+    /// - the back-EMF is within E = (P/2)·λr·f̂·|ωm|;
+    /// - a winding's current is what its voltage drives through its resistance (an RL
+    ///   circuit's current never exceeds max |v|/R, whatever its inductance), the voltage
+    ///   being the bridge's and the neutral's offset by a back-EMF, and its own back-EMF:
+    ///   |i| ≤ 2·(V + 2E)/R, with a factor 2 for the integration's error;
+    /// - a terminal lies between the rails widened by the drops of that current across a
+    ///   switch, a diode and the shunt (three phase currents), the neutral within a
+    ///   back-EMF of them, and the sensing filters within what drives them:
+    ///   |v| ≤ V + (R_on + R_d + 3·R_sh)·|i|max + E.
+    pub(crate) fn bounds(&self, t: f64) -> Bounds {
+        let m = &self.params.motor;
+        let ps = &self.params.power_stage;
+        let peak = match self.shape {
+            BackEmfShape::Harmonic { third, fifth } => 1.0 + third.abs() + fifth.abs(),
+            _ => 1.0,
+        };
+        let kl = self.pp * self.lambda;
+        let drive = MAX_SUPPLY_V + 2.0 * ps.diode_forward_v;
+        let torque = MAX_TORQUE_NM + 3.0 * kl * peak * drive / m.resistance_ohm;
+        let speed = MAX_SUPPLY_V / kl + torque / m.inertia_kgm2 * t.max(0.0);
+        let emf = kl * peak * speed;
+        let current = 2.0 * (drive + 2.0 * emf) / m.resistance_ohm;
+        let drops = ps.switch_on_resistance_ohm + ps.diode_resistance_ohm + 3.0 * ps.shunt_ohm;
+        Bounds {
+            speed,
+            emf,
+            current,
+            volts: drive + drops * current + emf,
+        }
+    }
+
+    /// The restored state lies within its [`Bounds`]: the committed state and the step
+    /// integrated ahead (the currents and the speed; the angle is checked with the times;
+    /// the energy integrals are sums over the run that feed nothing back, finite), every
+    /// angle kept with its sine and cosine is one, and what the step integrated ahead keeps
+    /// follows from its start: it starts at the committed state, at its angle, with the
+    /// derivative there.
+    fn check_bounds(&self) -> Result<(), String> {
+        let b = self.bounds(self.t);
+        check_dynamic("x", &self.x, &b)?;
+        // An angle a step reaches from 0..2π, before its wrap: kept with its sine and cosine.
+        let reach = TAU + self.pp * b.speed * (self.h_max + TICK_S);
+        let triple = |name: &str, (a, s, c): (f64, f64, f64)| {
+            let (sa, ca) = a.sin_cos();
+            check(a.abs() <= reach && close(s, sa) && close(c, ca), || {
+                format!(
+                    "{name} = ({a}, {s}, {c}) (rule: an angle within ±{reach} rad with its sine and cosine, within 1e-9)"
+                )
+            })
+        };
+        triple("base_hint", self.base_hint)?;
+        if let Some(e) = self.end_angle {
+            triple("end_angle", e)?;
+        }
+        if let Some(la) = &self.lookahead {
+            check(la.x0 == self.x, || {
+                "lookahead.x0 (rule: the committed state x, where the step integrated ahead starts)"
+                    .into()
+            })?;
+            check(la.base.0 == la.x0[THETA], || {
+                format!(
+                    "lookahead.base.0 = {} (rule: the angle of lookahead.x0, {})",
+                    la.base.0, la.x0[THETA]
+                )
+            })?;
+            triple("lookahead.base", la.base)?;
+            check_dynamic("lookahead.x1", &la.x1, &self.bounds(la.t1))?;
+            triple("lookahead.sc1", (la.x1[THETA], la.sc1.0, la.sc1.1))?;
+            // The derivative at the start, from the network's solution there (`start`,
+            // checked to be x0's with the rest of the restore).
+            let f0 = self.end_derivative(&la.x0, &self.start, la.base);
+            if let Some(k) = (0..f0.len()).find(|&k| !close(la.f0[k], f0[k])) {
+                return Err(format!(
+                    "lookahead.f0.[{k}] = {} (rule: the derivative at lookahead.x0, {}, within 1e-9)",
+                    la.f0[k], f0[k]
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    /// The network's solution at state `x` whose angle with its sine and cosine is
+    /// `angle`, compared with the kept `sol` in every field (see [`close`]): the rates of
+    /// the currents, terminal and neutral voltages, shunt current, the supply and airgap
+    /// powers, and the losses, made (as a solve makes them) or not yet (marked so).
+    pub(crate) fn solution_is(&self, x: &State, angle: (f64, f64, f64), sol: &Solution) -> bool {
+        if x.iter().any(|v| !v.is_finite()) {
+            return false;
+        }
+        let f = emf::shape_with(&self.shape, angle.0, (angle.1, angle.2));
+        let k = self.lambda * self.pp * x[OMEGA];
+        let i = Self::currents(x);
+        let plan = &self.form().2;
+        let s = self
+            .circuit
+            .solve_planned_losses_later(plan, &self.modes, &i, &f.map(|v| k * v));
+        let (p, q) = (&sol.powers, &s.powers);
+        let losses = if p.has_losses() {
+            let m = if q.has_losses() {
+                *q
+            } else {
+                self.circuit.with_losses(plan, &i, &s)
+            };
+            [
+                (p.copper, m.copper),
+                (p.switch, m.switch),
+                (p.diode, m.diode),
+                (p.shunt, m.shunt),
+            ]
+            .iter()
+            .all(|&(a, b)| close(a, b))
+        } else {
+            !q.has_losses() && (p.switch, p.diode, p.shunt) == (q.switch, q.diode, q.shunt)
+        };
+        let pairs = [
+            (sol.di.u, s.di.u),
+            (sol.di.v, s.di.v),
+            (sol.di.w, s.di.w),
+            (sol.v_term.u, s.v_term.u),
+            (sol.v_term.v, s.v_term.v),
+            (sol.v_term.w, s.v_term.w),
+            (sol.v_n, s.v_n),
+            (sol.i_shunt, s.i_shunt),
+            (p.supply, q.supply),
+            (p.airgap, q.airgap),
+        ];
+        losses && pairs.iter().all(|&(a, b)| close(a, b))
+    }
+
     /// The longest step \[ticks\], with a tick to spare for rounding.
     fn longest_step(&self) -> u64 {
         Ticks::from_seconds(self.h_max).map_or(u64::MAX, |k| k.0 + 1)
@@ -281,5 +484,46 @@ mod tests {
             e.starts_with("modes.u = 9") && e.contains("Conduction"),
             "{e}"
         );
+    }
+
+    #[test]
+    fn finite_values_beyond_physics_are_refused_naming_them() {
+        let pl = running();
+        let b = bytes(&pl);
+        let refuse = |at: usize, x: f64| {
+            let mut b = b.clone();
+            b[at..at + 8].copy_from_slice(&x.to_bits().to_le_bytes());
+            let mut pl = BldcPlant::new(PlantParams::default()).unwrap();
+            pl.restore(&mut Reader::new(&b)).unwrap_err()
+        };
+        let bound = pl.bounds(pl.t);
+        // The built-in motor at 20 µs: the bounds are generous, but finite.
+        assert!(bound.speed > 2e5 && bound.speed < 1e6, "{bound:?}");
+        assert!(bound.current < 1e5 && bound.volts < 1e5, "{bound:?}");
+        for x in [1e300, -1e30, 2.0 * bound.speed] {
+            let e = refuse(OMEGA * 8, x);
+            assert!(
+                e.starts_with(&format!("x.[3] = {x} (rule: a rotor speed |ωm| <=")),
+                "{e}"
+            );
+        }
+        for x in [1e300, -1e300, 2.0 * bound.current] {
+            let e = refuse(0, x);
+            assert!(
+                e.starts_with(&format!("x.[0] = {x} (rule: a winding current |i| <=")),
+                "{e}"
+            );
+        }
+        // The kept network solution at the state: x (16), t, tick (8 + 1), gates (6),
+        // modes (3), load (5 floats), speed_lock (1), then start's di (3), v_term.u.
+        let v_term_u = 16 * 8 + 8 + 9 + 6 + 3 + 5 * 8 + 1 + 3 * 8;
+        let held = f64::from_bits(u64::from_le_bytes(
+            b[v_term_u..v_term_u + 8].try_into().unwrap(),
+        ));
+        assert_eq!(held, pl.start.v_term.u, "the offset of start.v_term.u");
+        for x in [1e300, held + 1e-3] {
+            let e = refuse(v_term_u, x);
+            assert!(e.starts_with("start (rule: the network's solution"), "{e}");
+        }
     }
 }
