@@ -284,7 +284,7 @@ impl<T: Persist, const N: usize> Persist for [T; N] {
 }
 
 /// A tag, then the value, or a default one in its place: the size does not depend on
-/// whether there is a value.
+/// whether there is a value. The place of none holds the default's bytes, as saved.
 impl<T: Persist + Default> Persist for Option<T> {
     fn save(&self, w: &mut Writer) {
         match self {
@@ -301,13 +301,31 @@ impl<T: Persist + Default> Persist for Option<T> {
     fn restore(&mut self, r: &mut Reader) -> Result<(), String> {
         match r.u8()? {
             0 => {
-                T::default().restore(r)?;
+                restore_default::<T>(r).map_err(|e| format!("= none{e}"))?;
                 *self = None;
             }
             1 => self.get_or_insert_with(T::default).restore(r)?,
             b => return Err(format!("= tag {b} (rule: 0 for none, 1 for a value)")),
         }
         Ok(())
+    }
+}
+
+/// Reads a place saved as `T`'s default (a none's, a deque's or pipeline's padding):
+/// refused unless it holds the default's bytes, as saved, naming the first byte that
+/// differs.
+pub fn restore_default<T: Persist + Default>(r: &mut Reader) -> Result<(), String> {
+    let held = r.rest();
+    T::default().restore(r)?;
+    let held = &held[..held.len() - r.rest().len()];
+    let mut w = Writer::new();
+    T::default().save(&mut w);
+    match w.buf.iter().zip(held).position(|(a, b)| a != b) {
+        None => Ok(()),
+        Some(k) => Err(format!(
+            " with byte {k} of its place {} (rule: a place saved empty holds the default's bytes, here {})",
+            held[k], w.buf[k]
+        )),
     }
 }
 
@@ -352,10 +370,12 @@ impl<T: Persist + Default> Persist for VecDeque<T> {
         let n = r.len(1)?;
         self.clear();
         for k in 0..n.max(DEQUE_SLOTS) {
-            let mut x = T::default();
-            r.field(&format!("[{k}]"), &mut x)?;
             if k < n {
+                let mut x = T::default();
+                r.field(&format!("[{k}]"), &mut x)?;
                 self.push_back(x);
+            } else {
+                restore_default::<T>(r).map_err(|e| format!("[{k}] = padding{e}"))?;
             }
         }
         Ok(())
@@ -398,6 +418,18 @@ persist_fields!(Command {
     reads,
     wake_at
 });
+
+/// The most a count that only grows (steps, toggles, work done) holds in a restored
+/// state: a run within the plant's time rule (1e9 s, 5e16 ticks) counts far fewer at a
+/// few a tick, and one may count on 2^62 times from there without overflowing.
+pub const COUNT_MAX: u64 = 1 << 62;
+
+/// A count that only grows, restored: at most [`COUNT_MAX`].
+pub fn check_count(name: &str, n: u64) -> Result<(), String> {
+    check(n <= COUNT_MAX, || {
+        format!("{name} = {n} (rule: a count a run reaches, at most 2^62)")
+    })
+}
 
 /// A check of a restored value against the others: `Err` names it and the rule.
 pub fn check(ok: bool, what: impl FnOnce() -> String) -> Result<(), String> {
@@ -460,6 +492,15 @@ mod tests {
         assert!(e.starts_with("a = NaN") && e.contains("rule"), "{e}");
         let e = refuse(&|b| b[8] = 2);
         assert!(e.starts_with("b = tag 2"), "{e}");
+        // None holds the default's bytes in its place (the u32's low byte here).
+        let e = refuse(&|b| b[9] = 5);
+        assert!(
+            e.starts_with("b = none with byte 0 of its place 5 (rule: a place saved empty"),
+            "{e}"
+        );
+        // So does a deque's padding.
+        let e = refuse(&|b| b[26] = 1);
+        assert!(e.starts_with("c.[0] = padding with byte 0"), "{e}");
         let e = refuse(&|b| b[18..26].copy_from_slice(&u64::MAX.to_le_bytes()));
         assert!(e.starts_with("c = "), "{e}");
         let n = b.len();
