@@ -7,6 +7,7 @@ use crate::circuit::{self, Conduction, Powers, Solution};
 use crate::emf;
 use crate::load::{Load, MAX_TORQUE_NM};
 use crate::params::{BackEmfShape, MAX_SUPPLY_V};
+use crate::sensing::comparator::Limits;
 use drive_core::state::{Persist, Reader, Writer, check};
 use drive_core::{TICK_S, Ticks, persist_enum, persist_fields};
 use std::f64::consts::TAU;
@@ -176,8 +177,17 @@ impl Persist for BldcPlant {
         })?;
         r.field("cmp", &mut self.cmp)?;
         r.field("cur", &mut self.cur)?;
-        self.cmp.check_against(self.tick.0.0, self.longest_step())?;
-        self.cur.check_against(self.t, self.longest_step())
+        // The sensing chains at the end of the step integrated ahead, if any.
+        let b = self.bounds(self.lookahead.as_ref().map_or(self.t, |la| la.t1));
+        self.cmp.check_against(&Limits {
+            t: self.t,
+            now: self.tick.0.0,
+            longest: self.longest_step(),
+            volts: b.volts,
+            emf_rate: b.emf_rate,
+        })?;
+        let end = self.lookahead.as_ref().map_or(self.t, |la| la.t1);
+        self.cur.check_against(self.t, end, self.longest_step())
     }
 }
 
@@ -231,8 +241,8 @@ fn close(got: f64, want: f64) -> bool {
 pub(crate) struct Bounds {
     /// |ωm| [rad/s].
     pub(crate) speed: f64,
-    /// |e_x| \[V\].
-    pub(crate) emf: f64,
+    /// |de_x/dt| [V/s].
+    pub(crate) emf_rate: f64,
     /// |i_x| of each winding \[A\].
     pub(crate) current: f64,
     /// |v| of every terminal, the neutral, and the sensing filters they drive \[V\].
@@ -252,7 +262,9 @@ impl BldcPlant {
     ///   to: [`BldcPlant::set_rotor`]) the speed is within
     ///   |ωm| ≤ [`MAX_SUPPLY_V`]/((P/2)·λr) + a·t (an overhauling load spins a light rotor
     ///   far beyond its no-load speed: 6.6e6 rpm after 2 s at −1 N·m on the built-in one);
-    /// - the back-EMF is within E = (P/2)·λr·f̂·|ωm|;
+    /// - the back-EMF is within E = (P/2)·λr·f̂·|ωm|, and its rate
+    ///   de/dt = (P/2)·λr·(α·f + ωm·ωe·f′) within (P/2)·λr·(a·f̂ + (P/2)·|ωm|²·f̂′) (f̂′ the
+    ///   shape's steepest slope: 1, 1 + 3|h3| + 5|h5|, or 1/ramp);
     /// - a winding's current is what its voltage drives through its resistance (an RL
     ///   circuit's current never exceeds max |v|/R, whatever its inductance), the voltage
     ///   being the bridge's and the neutral's offset by a back-EMF, and its own back-EMF:
@@ -264,20 +276,29 @@ impl BldcPlant {
     pub(crate) fn bounds(&self, t: f64) -> Bounds {
         let m = &self.params.motor;
         let ps = &self.params.power_stage;
-        let peak = match self.shape {
-            BackEmfShape::Harmonic { third, fifth } => 1.0 + third.abs() + fifth.abs(),
-            _ => 1.0,
+        let (peak, slope) = match self.shape {
+            BackEmfShape::Sinusoidal => (1.0, 1.0),
+            BackEmfShape::Harmonic { third, fifth } => (
+                1.0 + third.abs() + fifth.abs(),
+                1.0 + 3.0 * third.abs() + 5.0 * fifth.abs(),
+            ),
+            BackEmfShape::Trapezoidal { flat_top_deg } => (
+                1.0,
+                2.0 / (std::f64::consts::PI - flat_top_deg.to_radians()),
+            ),
         };
         let kl = self.pp * self.lambda;
         let drive = MAX_SUPPLY_V + 2.0 * ps.diode_forward_v;
         let torque = MAX_TORQUE_NM + 3.0 * kl * peak * drive / m.resistance_ohm;
-        let speed = MAX_SUPPLY_V / kl + torque / m.inertia_kgm2 * t.max(0.0);
+        let accel = torque / m.inertia_kgm2;
+        let speed = MAX_SUPPLY_V / kl + accel * t.max(0.0);
         let emf = kl * peak * speed;
+        let emf_rate = kl * (accel * peak + self.pp * speed * speed * slope);
         let current = 2.0 * (drive + 2.0 * emf) / m.resistance_ohm;
         let drops = ps.switch_on_resistance_ohm + ps.diode_resistance_ohm + 3.0 * ps.shunt_ohm;
         Bounds {
             speed,
-            emf,
+            emf_rate,
             current,
             volts: drive + drops * current + emf,
         }
@@ -524,6 +545,22 @@ mod tests {
         for x in [1e300, held + 1e-3] {
             let e = refuse(v_term_u, x);
             assert!(e.starts_with("start (rule: the network's solution"), "{e}");
+        }
+        // The sensing chains come last: the comparators' filter y.u first, then the
+        // current sense's filter.
+        let cur = pl.cur.to_bytes().unwrap().len();
+        let cmp = b.len() - cur - pl.cmp.to_bytes().unwrap().len();
+        for x in [1e30, -1e300] {
+            let e = refuse(cmp, x);
+            assert!(
+                e.starts_with(&format!("cmp.front.y.u = {x} (rule: |y| <=")),
+                "{e}"
+            );
+            let e = refuse(b.len() - cur, x);
+            assert!(
+                e.starts_with(&format!("cur.y = {x} (rule: within the amplifier's swing")),
+                "{e}"
+            );
         }
     }
 }

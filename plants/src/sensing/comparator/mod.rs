@@ -22,6 +22,8 @@
 mod records;
 mod state;
 
+pub(crate) use state::Limits;
+
 use super::foh::Foh;
 use super::noise;
 use super::rc::{CubicRc, ExpTable, hermite, horner};
@@ -261,6 +263,16 @@ struct Ring {
     mag: f64,
 }
 
+impl Ring {
+    /// |z| by a square root (one instruction; `hypot`, a libm call, guards against
+    /// overflow far beyond volts), raised by 4 ulps so that it still bounds |z| whatever
+    /// the rounding of its three operations.
+    #[inline(always)]
+    fn magnitude(z: (f64, f64)) -> f64 {
+        (z.0 * z.0 + z.1 * z.1).sqrt() * (1.0 + 4.0 * f64::EPSILON)
+    }
+}
+
 /// The three comparators, their filters, the coupled ringing and the noise.
 #[derive(Clone, Debug)]
 pub struct ComparatorBank {
@@ -415,11 +427,7 @@ impl ComparatorBank {
         };
         let g = f.ring_gain * dv;
         f.ring.z = (re + g * dr, im + g * di);
-        // |z| by a square root (one instruction; `hypot`, a libm call, guards against
-        // overflow far beyond volts), raised by 4 ulps so that it still bounds |z|
-        // whatever the rounding of its three operations.
-        f.ring.mag =
-            (f.ring.z.0 * f.ring.z.0 + f.ring.z.1 * f.ring.z.1).sqrt() * (1.0 + 4.0 * f64::EPSILON);
+        f.ring.mag = Ring::magnitude(f.ring.z);
         f.ring.k = k;
         f.ring.t = Ticks(k).seconds();
     }
@@ -792,10 +800,41 @@ impl Front {
     /// The ringing's envelope at tick `k` (not before the excitation), by table.
     #[inline(always)]
     fn ring_envelope_at(&self, k: u64) -> f64 {
-        if self.ring.mag == 0.0 {
+        self.envelope_of(&self.ring, k)
+    }
+
+    /// The envelope of `ring` at tick `k` (not before its excitation), by table.
+    #[inline(always)]
+    fn envelope_of(&self, ring: &Ring, k: u64) -> f64 {
+        if ring.mag == 0.0 {
             return 0.0;
         }
-        self.ring.mag * self.pow_env.real(k.saturating_sub(self.ring.k))
+        ring.mag * self.pow_env.real(k.saturating_sub(ring.k))
+    }
+
+    /// e^{−h/τp}, e^{−h/τn} over a step of `h` \[s\]: by table for a length of whole
+    /// ticks (most are), else by the exponential's table.
+    #[inline(always)]
+    fn decays_of(&self, h: f64) -> (f64, f64) {
+        match Ticks::at_or_after(h) {
+            (n, true) => (self.pow_p.real(n.0), self.pow_n.real(n.0)),
+            _ => {
+                let [dp, dn] = self.exp_pn.at(h);
+                (dp, dn)
+            }
+        }
+    }
+
+    /// e^{−τ/τp}, e^{−τ/τn} at a step's first tick `k_start`, τ after its start `t0`.
+    #[inline(always)]
+    fn first_decays(&self, t0: f64, k_start: u64) -> (f64, f64) {
+        let ta = tick_instant(k_start) - t0;
+        if (ta - TICK_S).abs() < 1e-6 * TICK_S {
+            (self.q_p, self.q_n)
+        } else {
+            let [dp, dn] = self.exp_pn.at(ta);
+            (dp, dn)
+        }
     }
 
     /// Forgets toggles no query can reach any more: queries come at `now` or later, so
@@ -1117,21 +1156,10 @@ impl Front {
         // Steps repeat their lengths (PWM half-periods, the solver's longest step): cache;
         // a length of whole ticks (most are) by table.
         if self.decay_cache.0 != h {
-            self.decay_cache = match Ticks::at_or_after(h) {
-                (n, true) => (h, self.pow_p.real(n.0), self.pow_n.real(n.0)),
-                _ => {
-                    let [dp, dn] = self.exp_pn.at(h);
-                    (h, dp, dn)
-                }
-            };
+            let (dp, dn) = self.decays_of(h);
+            self.decay_cache = (h, dp, dn);
         }
-        let ta = tick_instant(k_start) - t0;
-        let first = if (ta - TICK_S).abs() < 1e-6 * TICK_S {
-            (self.q_p, self.q_n)
-        } else {
-            let [dp, dn] = self.exp_pn.at(ta);
-            (dp, dn)
-        };
+        let first = self.first_decays(t0, k_start);
         let (v0, v1) = (k0.v.to_array(), k1.v.to_array());
         let (r0, r1) = (k0.emf_rate.to_array(), k1.emf_rate.to_array());
         let y = self.y.to_array();

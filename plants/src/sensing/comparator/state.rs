@@ -7,8 +7,8 @@ use super::records::{Bend, RECORDS, Record, Records};
 use super::{Channel, ComparatorBank, Cursor, Front, History, Ring, ScanWork};
 use crate::sensing::foh::Foh;
 use crate::sensing::rc::CubicRc;
-use drive_core::state::check;
-use drive_core::{Phase, persist_fields};
+use drive_core::state::{check, check_count};
+use drive_core::{Phase, TICK_S, Ticks, persist_fields};
 
 persist_fields!(Foh { a, b, c });
 persist_fields!(Bend { p, transient });
@@ -118,11 +118,183 @@ persist_fields!(ComparatorBank {
     read_from
 });
 
+/// What the comparators' analog values are held to (from the plant's bounds, see
+/// `BldcPlant::bounds`).
+#[derive(Copy, Clone, Debug)]
+pub(crate) struct Limits {
+    /// The plant's time \[s\] and its tick.
+    pub(crate) t: f64,
+    pub(crate) now: u64,
+    /// The longest step \[ticks\].
+    pub(crate) longest: u64,
+    /// |v| of the terminals and the neutral \[V\].
+    pub(crate) volts: f64,
+    /// |de/dt| of a back-EMF [V/s].
+    pub(crate) emf_rate: f64,
+}
+
+impl Limits {
+    /// |y| of a filter over a step of `h` \[s\]: its inputs' range, and a floating leg's
+    /// bend on top, a cubic vanishing at the step's ends whose end slopes are the
+    /// back-EMF's rate less the chord's (each at most 2·volts/h), so within
+    /// h·(4·volts/h + 2·|de/dt|) of the chord.
+    fn filter(&self, h: f64) -> f64 {
+        5.0 * self.volts + 2.0 * h * self.emf_rate
+    }
+}
+
+/// A value computed in the run against its rule's `bound`, with room for the rounding of
+/// the `terms` it was computed from (1e-9 of their magnitudes).
+fn within(x: f64, bound: f64, terms: f64) -> bool {
+    x.abs() <= bound + 1e-9 * terms
+}
+
+impl Front {
+    /// The filters' outputs (three phase paths, then the neutral's) τ into `rec`'s step,
+    /// and the magnitude of the terms they are sums of.
+    fn outputs_in(&self, rec: &Record, tau: f64) -> ([f64; 4], f64) {
+        let (dp, dn) = ((-tau / self.tau_p).exp(), (-tau / self.tau_n).exp());
+        let (y, y_n) = rec.filters_at(tau, (dp, dn), (self.tau_p, self.tau_n));
+        let foh =
+            |f: &Foh, d: f64, tau_f: f64| f.a.abs() + (f.b * (tau - tau_f)).abs() + (f.c * d).abs();
+        let mut terms = foh(&rec.fn_, dn, self.tau_n);
+        for j in 0..3 {
+            terms += foh(&rec.fx[j], dp, self.tau_p);
+            if let Some(b) = &rec.bend[j] {
+                terms += b.transient.abs()
+                    + b.p
+                        .iter()
+                        .enumerate()
+                        .map(|(k, p)| (p * tau.powi(k as i32)).abs())
+                        .sum::<f64>();
+            }
+        }
+        ([y.u, y.v, y.w, y_n], terms)
+    }
+
+    /// A kept step, any of the ring's (the run wrote each, and an older one is overwritten
+    /// whole before it is used again): its ticks and decays follow from its start and
+    /// length as [`Front::record`] makes them, its ringing is one [`Front::check_ring`]
+    /// allows, and the filters' outputs at its start, middle and end lie within `lim`.
+    fn check_record(&self, k: usize, rec: &Record, lim: &Limits) -> Result<(), String> {
+        let longest_s = lim.longest as f64 * TICK_S;
+        check(
+            (0.0..=lim.t).contains(&rec.t0) && (0.0..=longest_s).contains(&rec.h),
+            || {
+                format!(
+                    "cmp.records.buf[{k}]: t0 = {} s, h = {} s (rule: a step begun by the plant's time {} s, at most the longest step {longest_s} s)",
+                    rec.t0, rec.h, lim.t
+                )
+            },
+        )?;
+        let k_start = Ticks::at_or_before(rec.t0).0 + 1;
+        check(rec.k_start == k_start, || {
+            format!(
+                "cmp.records.buf[{k}].k_start = {} (rule: the first tick after its start, {k_start})",
+                rec.k_start
+            )
+        })?;
+        self.check_ring(&format!("cmp.records.buf[{k}].ring"), &rec.ring, lim)?;
+        let env = self.envelope_of(&rec.ring, rec.k_start);
+        check(rec.env_first == env, || {
+            format!(
+                "cmp.records.buf[{k}].env_first = {} (rule: its ringing's envelope at its first tick, {env})",
+                rec.env_first
+            )
+        })?;
+        // The decays of a step walked (one with a tick in it; the ring's first, empty
+        // step holds ones).
+        if rec.k_start <= rec.k_end {
+            let (eh, first) = (
+                self.decays_of(rec.h),
+                self.first_decays(rec.t0, rec.k_start),
+            );
+            check(rec.eh == eh && rec.first == first, || {
+                format!(
+                    "cmp.records.buf[{k}]: eh = {:?}, first = {:?} (rule: the filters' decays over its length and to its first tick, {eh:?} and {first:?})",
+                    rec.eh, rec.first
+                )
+            })?;
+        }
+        for (j, b) in rec.bend.iter().enumerate() {
+            if let Some(b) = b {
+                check(b.transient == -b.p[0], || {
+                    format!(
+                        "cmp.records.buf[{k}].bend[{j}].transient = {} (rule: from rest at the step's start, −p[0] = {})",
+                        b.transient, -b.p[0]
+                    )
+                })?;
+            }
+        }
+        let bound = lim.filter(rec.h);
+        for tau in [0.0, 0.5 * rec.h, rec.h] {
+            let (y, terms) = self.outputs_in(rec, tau);
+            if let Some(j) = (0..4).find(|&j| !within(y[j], bound, terms)) {
+                return Err(format!(
+                    "cmp.records.buf[{k}]: filter {} = {} V {tau} s into the step (rule: |y| <= {bound} V, what the terminals and a back-EMF's bend drive)",
+                    ["u", "v", "w", "n"][j],
+                    y[j]
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    /// The ringing: its instant is its tick's, its envelope |z| as [`Ring::magnitude`]
+    /// makes it, and |z| no more than the largest switching-node step (twice `volts`)
+    /// coupled in at every tick, twice, decaying between: 4·g·volts/(1 − e^{−T/τr}) ≤
+    /// 4·g·volts·(1 + τr/T).
+    fn check_ring(&self, name: &str, ring: &Ring, lim: &Limits) -> Result<(), String> {
+        check(ring.t == Ticks(ring.k).seconds(), || {
+            format!(
+                "{name}.t = {} (rule: the instant of its tick {}, {} s)",
+                ring.t,
+                ring.k,
+                Ticks(ring.k).seconds()
+            )
+        })?;
+        let bound = 4.0 * self.ring_gain * lim.volts * (1.0 + self.ring_decay / TICK_S);
+        let mag = Ring::magnitude(ring.z);
+        check(ring.mag == mag && mag <= bound, || {
+            format!(
+                "{name} = {:?}, mag = {} (rule: mag = |z| raised by 4 ulps, {mag}, and |z| <= {bound} V)",
+                ring.z, ring.mag
+            )
+        })
+    }
+
+    /// The scan of channel `j` left pending: of the newest step, as [`Front::channel`]
+    /// makes it from that step, its stationary value (once computed) that step's.
+    fn check_pending(&self, j: usize, cur: &Cursor, newest: &Record) -> Result<(), String> {
+        let c = &cur.c;
+        let want = self.channel(newest, c.x);
+        let same = c.t0 == want.t0
+            && c.k_s == want.k_s
+            && c.base == want.base
+            && c.poly == want.poly
+            && c.beta == want.beta
+            && c.dev == want.dev
+            && c.a == want.a
+            && c.b == want.b
+            && c.ap == want.ap
+            && c.bn == want.bn
+            && c.stationary
+                .get()
+                .is_none_or(|g| g == self.stationary_value(&want));
+        check(same, || {
+            format!(
+                "cmp.pending[{j}].c (rule: the channel of the newest step, as its record makes it)"
+            )
+        })
+    }
+}
+
 impl ComparatorBank {
     /// Checks a restored bank against the plant's tick `now`: the kept steps, the scans
     /// and the ringing lie within the longest step (`longest` ticks) of it, and every
     /// index is in bounds, so no walk reaches further than a step would.
-    pub(crate) fn check_against(&self, now: u64, longest: u64) -> Result<(), String> {
+    pub(crate) fn check_against(&self, lim: &Limits) -> Result<(), String> {
+        let (now, longest) = (lim.now, lim.longest);
         let late = now.saturating_add(longest);
         let rs = &self.records;
         check((1..=RECORDS).contains(&rs.len), || {
@@ -185,6 +357,64 @@ impl ComparatorBank {
         let ring = &self.front.ring;
         check(ring.k <= late, || {
             format!("cmp.ring.k = {} (rule: excited by tick {late})", ring.k)
-        })
+        })?;
+        self.check_values(lim)
+    }
+
+    /// The analog values and counts: the filters within what drives them, each output
+    /// the state its toggle history ends in, the toggle count at least the toggles held,
+    /// the kept steps and the ringing as [`Front::check_record`] and
+    /// [`Front::check_ring`] hold them, and the scans left pending as the newest step
+    /// makes them.
+    fn check_values(&self, lim: &Limits) -> Result<(), String> {
+        let f = &self.front;
+        let bound = lim.filter(lim.longest as f64 * TICK_S);
+        let y = [f.y.u, f.y.v, f.y.w, f.y_n];
+        if let Some(j) = (0..4).find(|&j| !within(y[j], bound, 0.0)) {
+            return Err(format!(
+                "cmp.front.{} = {} (rule: |y| <= {bound} V, what the terminals and a back-EMF's bend drive)",
+                ["y.u", "y.v", "y.w", "y_n"][j],
+                y[j]
+            ));
+        }
+        let mut held = 0;
+        for x in Phase::ALL {
+            let h = &f.hist[x.index()];
+            let last = h.newest().map_or(h.base, |t| t.1);
+            check(f.out.get(x) == last, || {
+                format!(
+                    "cmp.front.out.{x:?} = {} (rule: the state its toggle history ends in, {last})",
+                    f.out.get(x)
+                )
+            })?;
+            held += h.toggles.len() as u64;
+        }
+        check(f.toggles >= held, || {
+            format!(
+                "cmp.front.toggles = {} (rule: at least the {held} toggles held, which it counts)",
+                f.toggles
+            )
+        })?;
+        check_count("cmp.front.toggles", f.toggles)?;
+        let w = &f.work;
+        for (name, n) in [
+            ("scans", w.scans),
+            ("ticks_scanned", w.ticks_scanned),
+            ("segments", w.segments),
+            ("blocks", w.blocks),
+        ] {
+            check_count(&format!("cmp.front.work.{name}"), n)?;
+        }
+        f.check_ring("cmp.front.ring", &f.ring, lim)?;
+        for (k, rec) in self.records.buf.iter().enumerate() {
+            f.check_record(k, rec, lim)?;
+        }
+        let newest = self.records.newest();
+        for (j, cur) in self.pending.iter().enumerate() {
+            if let Some(cur) = cur {
+                f.check_pending(j, cur, newest)?;
+            }
+        }
+        Ok(())
     }
 }
