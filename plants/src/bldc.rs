@@ -1291,7 +1291,8 @@ impl BldcPlant {
                 }
             }
             self.same_instant_events = if t1 - t0 < 1e-12 {
-                self.same_instant_events + 1
+                // Saturating: only its reaching 4 matters (a restored count may be any).
+                self.same_instant_events.saturating_add(1)
             } else {
                 0
             };

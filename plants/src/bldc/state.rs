@@ -8,7 +8,7 @@ use crate::emf;
 use crate::load::{Load, MAX_TORQUE_NM};
 use crate::params::{BackEmfShape, MAX_SUPPLY_V};
 use crate::sensing::comparator::Limits;
-use drive_core::state::{Persist, Reader, Writer, check};
+use drive_core::state::{Persist, Reader, Writer, check, check_count};
 use drive_core::{TICK_S, Ticks, persist_enum, persist_fields};
 use std::f64::consts::TAU;
 
@@ -418,6 +418,16 @@ impl BldcPlant {
         check((k.seconds() - t).abs() <= TICK_S, || {
             format!("tick = {} (rule: the tick of t = {t} s)", k.0)
         })?;
+        check(self.reported <= k, || {
+            format!(
+                "reported = {} (rule: a clock edge reported by the plant's tick {})",
+                self.reported.0, k.0
+            )
+        })?;
+        let s = &self.stats;
+        check_count("stats.steps", s.steps)?;
+        check_count("stats.diode_events", s.diode_events)?;
+        check_count("stats.retries", s.retries)?;
         check(
             self.x[super::THETA] >= 0.0 && self.x[super::THETA] < std::f64::consts::TAU,
             || {
