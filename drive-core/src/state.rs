@@ -315,11 +315,9 @@ impl<T: Persist + Default> Persist for Option<T> {
 /// refused unless it holds the default's bytes, as saved, naming the first byte that
 /// differs.
 pub fn restore_default<T: Persist + Default>(r: &mut Reader) -> Result<(), String> {
-    let held = r.rest();
-    T::default().restore(r)?;
-    let held = &held[..held.len() - r.rest().len()];
     let mut w = Writer::new();
     T::default().save(&mut w);
+    let held = r.take(w.buf.len())?;
     match w.buf.iter().zip(held).position(|(a, b)| a != b) {
         None => Ok(()),
         Some(k) => Err(format!(
