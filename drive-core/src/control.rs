@@ -145,6 +145,16 @@ pub trait Controller {
     fn planned_change(&self) -> Option<(Ticks, Pattern)> {
         None
     }
+
+    /// Checks a controller restored from a state (see [`crate::state`]) against the
+    /// engine's instant `now`, on the same time base: the instants it keeps lie where a run
+    /// leaves them (passed ones by `now`, deadlines within their periods after it). The
+    /// engine calls it after restoring the controller; the default has nothing to check. A
+    /// controller wrapping another forwards it.
+    fn check_restored(&self, now: Ticks) -> Result<(), String> {
+        let _ = now;
+        Ok(())
+    }
 }
 
 impl<C: Controller + ?Sized> Controller for &mut C {
@@ -160,6 +170,9 @@ impl<C: Controller + ?Sized> Controller for &mut C {
     fn planned_change(&self) -> Option<(Ticks, Pattern)> {
         (**self).planned_change()
     }
+    fn check_restored(&self, now: Ticks) -> Result<(), String> {
+        (**self).check_restored(now)
+    }
 }
 
 impl<C: Controller + ?Sized> Controller for Box<C> {
@@ -174,6 +187,9 @@ impl<C: Controller + ?Sized> Controller for Box<C> {
     }
     fn planned_change(&self) -> Option<(Ticks, Pattern)> {
         (**self).planned_change()
+    }
+    fn check_restored(&self, now: Ticks) -> Result<(), String> {
+        (**self).check_restored(now)
     }
 }
 

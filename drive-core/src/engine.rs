@@ -465,7 +465,28 @@ impl<P: Plant + Persist, C: Controller + Persist, S: PwmScheme> Engine<P, C, S> 
                 now.seconds()
             )
         })?;
-        r.field("controller", &mut self.controller)
+        r.field("controller", &mut self.controller)?;
+        // The wake-up the last command asked for, on the controller's clock after its
+        // tick; a sensing stop or an input changed from outside only brings it forward.
+        if let (true, Some(t)) = (self.started, self.last_tick) {
+            let asked = if self.cmd.wake_at == Ticks::NEVER {
+                Ticks::NEVER
+            } else {
+                self.cmd
+                    .wake_at
+                    .max(Ticks(t.0.saturating_add(1)))
+                    .next_edge(self.controller.clock())
+            };
+            check(self.wake <= asked, || {
+                format!(
+                    "wake = {} (rule: at most the wake-up the last command asked for, {})",
+                    self.wake.0, asked.0
+                )
+            })?;
+        }
+        self.controller
+            .check_restored(now)
+            .map_err(|e| crate::state::named("controller", &e))
     }
 }
 
@@ -850,6 +871,67 @@ mod tests {
         let err = e.restore_from(&bad).unwrap_err();
         assert!(err.contains("at = 0"), "{err}");
         assert_eq!(e.planned, [Ticks::NEVER; 2]);
+    }
+
+    #[test]
+    fn a_restored_wake_up_and_controller_are_held_to_now() {
+        /// Keeps one instant, which a restore holds to the engine's `now`.
+        struct Keeps(Ticks);
+        impl Controller for Keeps {
+            fn clock(&self) -> Ticks {
+                Ticks(32)
+            }
+            fn tick(&mut self, now: Ticks, _s: &Sensed) -> Command {
+                self.0 = now;
+                Command {
+                    wake_at: Ticks(now.0 + 64),
+                    ..Command::OFF
+                }
+            }
+            fn check_restored(&self, now: Ticks) -> Result<(), String> {
+                check(self.0 <= now, || {
+                    format!("kept = {} (rule: by now)", self.0.0)
+                })
+            }
+        }
+        impl Persist for Keeps {
+            fn save(&self, w: &mut Writer) {
+                self.0.save(w);
+            }
+            fn restore(&mut self, r: &mut Reader) -> Result<(), String> {
+                r.field("kept", &mut self.0)
+            }
+        }
+        let engine = || {
+            let plant = MockPlant::new(Ticks::NEVER);
+            Engine::new(
+                plant,
+                Keeps(Ticks::ZERO),
+                HighSideChop,
+                Carrier { top: 100 },
+                Ticks::ZERO,
+            )
+        };
+        let mut e = engine();
+        e.step(Ticks(100)).unwrap();
+        e.step(Ticks(100)).unwrap();
+        assert_eq!((e.now, e.wake), (Ticks(64), Ticks(128)), "woken as asked");
+        engine().restore_from(&e.to_bytes().unwrap()).unwrap();
+        // Later than the command asked: no run leaves it so (earlier is a sensing stop's).
+        e.wake = Ticks(160);
+        let err = engine().restore_from(&e.to_bytes().unwrap()).unwrap_err();
+        assert!(
+            err.starts_with(
+                "wake = 160 (rule: at most the wake-up the last command asked for, 128)"
+            ),
+            "{err}"
+        );
+        e.wake = Ticks(96);
+        engine().restore_from(&e.to_bytes().unwrap()).unwrap();
+        // The controller is asked with the engine's instant.
+        e.controller.0 = Ticks(65);
+        let err = engine().restore_from(&e.to_bytes().unwrap()).unwrap_err();
+        assert_eq!(err, "controller.kept = 65 (rule: by now)");
     }
 
     #[test]
