@@ -924,13 +924,91 @@ impl Chip {
                 self.cv, self.top
             ));
         }
-        Ok(())
+        self.check_registers()
+    }
+
+    /// The registers and counts as the chip leaves them: the current command from the
+    /// start-up current or the speed PI (within the current limit), the restart count up
+    /// to the most allowed (one more once given up), the measurements seen no more than
+    /// made, the confirmation angle the parameter's (while starting) or none, and the
+    /// supervisor as its updates leave it.
+    fn check_registers(&self) -> Result<(), String> {
+        use drive_core::state::{check, check_count};
+        let c = &self.control;
+        let top = c.current_limit_a.max(c.start_current_a);
+        check((0.0..=top).contains(&self.i_ref), || {
+            format!(
+                "i_ref = {} (rule: 0..={top} A, the start-up current or the speed PI's output within the current limit)",
+                self.i_ref
+            )
+        })?;
+        let max = c.max_restarts;
+        check(
+            self.restarts <= max || (self.restarts == max + 1 && self.mode == Mode::GaveUp),
+            || {
+                format!(
+                    "restarts = {} (rule: at most control.max_restarts = {max}, one more once given up)",
+                    self.restarts
+                )
+            },
+        )?;
+        check(self.measurements_seen <= self.speed.measurements(), || {
+            format!(
+                "measurements_seen = {} (rule: at most the {} measurements made)",
+                self.measurements_seen,
+                self.speed.measurements()
+            )
+        })?;
+        check_count("crossings", self.crossings)?;
+        let deg = c.startup_confirm_deg;
+        let confirm = self.shifter.confirmation();
+        check(confirm.is_none() || confirm == Some(deg), || {
+            format!(
+                "shifter.confirm = {confirm:?} (rule: none, or control.startup_confirm_deg = {deg} while starting)"
+            )
+        })?;
+        self.supervisor.check_restored_with(self.speed.max_rpm())
     }
 }
 
 impl Controller for Chip {
     fn clock(&self) -> Ticks {
         clocks::COMMUTATION
+    }
+
+    /// The instants the chip keeps against the engine's `now`: the start input's and FG's
+    /// last changes passed, the next PI update within a PI period (or none), an alignment
+    /// step's end no later than one begun now would end, and the speed meter's, the
+    /// shifter's and the guard filter's instants as they check them.
+    fn check_restored(&self, now: Ticks) -> Result<(), String> {
+        use drive_core::state::check;
+        for (name, t) in [
+            ("start_since", self.start_since),
+            ("fg_since", self.fg_since),
+        ] {
+            check(t <= now, || {
+                format!("{name} = {} (rule: an instant by now = {})", t.0, now.0)
+            })?;
+        }
+        let pi = now.0.saturating_add(clocks::PI_UPDATE.0);
+        check(self.next_pi == Ticks::NEVER || self.next_pi.0 <= pi, || {
+            format!(
+                "next_pi = {} (rule: within a PI period after now, by {pi}, or none)",
+                self.next_pi.0
+            )
+        })?;
+        if let Mode::Aligning { step, until } = self.mode {
+            let end = self.align_end(now, usize::from(step));
+            check(until <= end, || {
+                format!(
+                    "mode.until = {} (rule: the end of alignment step {step}, no later than one begun now, {})",
+                    until.0, end.0
+                )
+            })?;
+        }
+        self.speed.check_at(now)?;
+        self.shifter.check_at(now)?;
+        self.guard.filter.check_at(now)
     }
 
     /// The end of the post part (the commutation to the sector's pre pattern) or of an
@@ -1042,6 +1120,67 @@ mod tests {
     fn next(c: &mut Chip, now: &mut Ticks, cmd: &Command) -> Command {
         *now = next_edge(*now, cmd);
         c.tick(*now, &Sensed::default())
+    }
+
+    /// A chip running as the engine runs it, restored: each register, count and instant
+    /// forged out of its rule is refused naming it, and the chip as it was is accepted.
+    #[test]
+    fn restored_registers_counts_and_instants_keep_their_rules() {
+        use drive_core::Persist;
+        let mut c = chip(5);
+        let mut now = Ticks::ZERO;
+        let mut cmd = c.tick(now, &Sensed::default());
+        while c.status().mode == Mode::Off || now < Ticks(40_000) {
+            cmd = next(&mut c, &mut now, &cmd);
+        }
+        let restore = |c: &Chip| {
+            let mut r = chip(5);
+            r.restore_from(&c.to_bytes().unwrap())
+                .and_then(|()| Controller::check_restored(&r, now))
+        };
+        restore(&c).unwrap();
+        let refused = |edit: &dyn Fn(&mut Chip), want: &str| {
+            let mut f = c.clone();
+            edit(&mut f);
+            let e = restore(&f).unwrap_err();
+            assert!(e.starts_with(want), "{want}: {e}");
+        };
+        refused(
+            &|f| f.i_ref = 1e30,
+            "i_ref = 1000000000000000000000000000000 (rule: 0..=",
+        );
+        refused(&|f| f.i_ref = -1e-3, "i_ref = -0.001 (rule:");
+        refused(
+            &|f| f.restarts = 6,
+            "restarts = 6 (rule: at most control.max_restarts = 5",
+        );
+        refused(
+            &|f| f.measurements_seen = 1,
+            "measurements_seen = 1 (rule: at most the 0",
+        );
+        refused(&|f| f.start_since = Ticks(now.0 + 1), "start_since = ");
+        refused(&|f| f.fg_since = Ticks(u64::MAX - 5), "fg_since = ");
+        refused(
+            &|f| f.next_pi = Ticks(now.0 + clocks::PI_UPDATE.0 + 1),
+            "next_pi = ",
+        );
+        if let Mode::Aligning { step, .. } = c.mode {
+            refused(
+                &|f| {
+                    f.mode = Mode::Aligning {
+                        step,
+                        until: Ticks(u64::MAX - 1),
+                    }
+                },
+                "mode.until = ",
+            );
+        } else {
+            panic!("still aligning at {now:?}: {:?}", c.mode);
+        }
+        // Given up, one restart more than allowed is the count that gave up.
+        let mut g = c.clone();
+        (g.mode, g.restarts) = (Mode::GaveUp, 6);
+        restore(&g).unwrap();
     }
 
     /// The clock edge of the chip's next tick after `now` under command `cmd`.

@@ -138,13 +138,65 @@ drive_core::persist_fields!(DigitalFilter {
     out,
     last_edge,
     last_in
-});
+} then DigitalFilter::check_restored);
+
+impl DigitalFilter {
+    /// The register within its flip-flops, the latch set when all hold 1 and clear when
+    /// all hold 0, as every shift leaves them.
+    fn check_restored(&self) -> Result<(), String> {
+        let m = self.mask();
+        drive_core::state::check(
+            self.reg & !m == 0 && (self.reg != m || self.out) && (self.reg != 0 || !self.out),
+            || {
+                format!(
+                    "filter.reg = {:#x}, out = {} (rule: within its {} flip-flops, the latch set when all are 1 and clear when all are 0)",
+                    self.reg, self.out, self.samples
+                )
+            },
+        )
+    }
+
+    /// The last clock edge by the engine's instant `now`.
+    pub(crate) fn check_at(&self, now: Ticks) -> Result<(), String> {
+        drive_core::state::check(self.last_edge.is_none_or(|t| t <= now), || {
+            format!(
+                "filter.last_edge = {:?} (rule: a clock edge by now = {})",
+                self.last_edge, now.0
+            )
+        })
+    }
+}
 
 #[cfg(test)]
 mod tests {
     use super::*;
 
     const C: Ticks = Ticks(32);
+
+    #[test]
+    fn a_restored_register_and_latch_are_ones_the_shifts_leave() {
+        use drive_core::Persist;
+        let mut f = DigitalFilter::new(4, C);
+        for k in 0..6 {
+            f.clock_at(Ticks(32 * k), true);
+        }
+        assert!(f.output());
+        let fresh = || DigitalFilter::new(4, C);
+        fresh().restore_from(&f.to_bytes().unwrap()).unwrap();
+        for (reg, out) in [(0x1f, true), (0xf, false), (0, true)] {
+            let forged = DigitalFilter {
+                reg,
+                out,
+                ..f.clone()
+            };
+            let e = fresh()
+                .restore_from(&forged.to_bytes().unwrap())
+                .unwrap_err();
+            assert!(e.starts_with("filter.reg = "), "{e}");
+        }
+        assert!(f.check_at(Ticks(32 * 5)).is_ok());
+        assert!(f.check_at(Ticks(32 * 5 - 1)).is_err());
+    }
 
     /// Feeds a sampled input (one value per clock edge, every edge) and returns the outputs.
     fn run(samples: u32, input: &[bool]) -> Vec<bool> {

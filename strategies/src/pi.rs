@@ -98,7 +98,27 @@ impl Pi {
 }
 
 // The integrator and output; the gains are parameters.
-drive_core::persist_fields!(Pi { ui, out });
+drive_core::persist_fields!(Pi { ui, out } then Pi::check_restored);
+
+impl Pi {
+    /// Integrator and output within their clamps, as every update and set leaves them.
+    fn check_restored(&self) -> Result<(), String> {
+        let g = &self.gains;
+        let ui_hi = g.ui_hi.max(g.hi);
+        drive_core::state::check((g.lo..=ui_hi).contains(&self.ui), || {
+            format!(
+                "ui = {} (rule: the integrator's clamp {}..={ui_hi})",
+                self.ui, g.lo
+            )
+        })?;
+        drive_core::state::check((g.lo..=g.hi).contains(&self.out), || {
+            format!(
+                "out = {} (rule: the output's clamp {}..={})",
+                self.out, g.lo, g.hi
+            )
+        })
+    }
+}
 
 #[cfg(test)]
 mod tests {
@@ -112,6 +132,30 @@ mod tests {
             hi: 10.0,
             ui_hi: 10.0,
             k_s,
+        }
+    }
+
+    #[test]
+    fn a_restored_integrator_and_output_keep_their_clamps() {
+        use drive_core::Persist;
+        let mut pi = Pi::new(gains(0.0), 0.0);
+        pi.update(3.0);
+        let ok = Pi::new(gains(0.0), 0.0).restore_from(&pi.to_bytes().unwrap());
+        assert_eq!(ok, Ok(()));
+        for (ui, out, want) in [
+            (
+                1e30,
+                1.0,
+                "ui = 1000000000000000000000000000000 (rule: the integrator's clamp 0..=10)",
+            ),
+            (-1.0, 1.0, "ui = -1 (rule: the integrator's clamp 0..=10)"),
+            (1.0, 10.5, "out = 10.5 (rule: the output's clamp 0..=10)"),
+        ] {
+            let forged = Pi { ui, out, ..pi };
+            let e = Pi::new(gains(0.0), 0.0)
+                .restore_from(&forged.to_bytes().unwrap())
+                .unwrap_err();
+            assert_eq!(e, want);
         }
     }
 

@@ -387,6 +387,46 @@ impl PhaseShifter {
     }
 }
 
+impl PhaseShifter {
+    /// A restored shifter's instants against the engine's instant `now`: the commutation,
+    /// the crossing, the confirmation counter's and the pre level's instants passed by
+    /// `now`, and the post part's end within a t_60 after it (a crossing's post part is at
+    /// most t_60), or none.
+    pub(crate) fn check_at(&self, now: Ticks) -> Result<(), String> {
+        let passed = [
+            ("entered_pre", Some(self.entered_pre)),
+            ("last_cross", Some(self.last_cross)),
+            ("integ_at", Some(self.integ_at)),
+            ("integ_from", Some(self.integ_from)),
+            ("pre_run", self.pre_run),
+        ];
+        for (name, t) in passed {
+            drive_core::state::check(t.is_none_or(|t| t <= now), || {
+                format!(
+                    "shifter.{name} = {} (rule: an instant by now = {})",
+                    t.unwrap_or(now).0,
+                    now.0
+                )
+            })?;
+        }
+        let last = now.0.saturating_add(self.t60 * CLK);
+        drive_core::state::check(
+            self.post_end == Ticks::NEVER || self.post_end.0 <= last,
+            || {
+                format!(
+                    "shifter.post_end = {} (rule: within a t_60 after now, by {last}, or none)",
+                    self.post_end.0
+                )
+            },
+        )
+    }
+
+    /// The confirmation angle in force, for the chip's check against its parameter.
+    pub(crate) fn confirmation(&self) -> Option<u32> {
+        self.confirm
+    }
+}
+
 // Everything but the blanking time, a parameter, and the post fraction and sectors, derived
 // from the table.
 drive_core::persist_fields!(PhaseShifter {
@@ -415,6 +455,15 @@ fn rederive(s: &mut PhaseShifter) -> Result<(), String> {
     if s.sector >= 6 {
         return Err(format!("sector = {} (rule: 0..=5)", s.sector));
     }
+    // The counter's range, as a hand-over and every crossing clamp it.
+    drive_core::state::check((1..=COUNTER_MAX).contains(&s.t60), || {
+        format!(
+            "t60 = {} (rule: the 60° counter's range 1..={COUNTER_MAX})",
+            s.t60
+        )
+    })?;
+    drive_core::state::check_count("forced", s.forced)?;
+    drive_core::state::check_count("integ", s.integ)?;
     s.post = s.table.post_fraction();
     s.sectors = s.table.sectors();
     Ok(())
@@ -424,6 +473,34 @@ fn rederive(s: &mut PhaseShifter) -> Result<(), String> {
 mod tests {
     use super::*;
     use crate::table::Table;
+
+    #[test]
+    fn a_restored_counter_and_instants_keep_their_rules() {
+        use drive_core::Persist;
+        let mut s = PhaseShifter::new(Table::SixStep, Ticks(320));
+        s.hand_over(0, Ticks(6400), 1000, true);
+        let fresh = || PhaseShifter::new(Table::SixStep, Ticks(320));
+        fresh().restore_from(&s.to_bytes().unwrap()).unwrap();
+        s.check_at(Ticks(6400)).unwrap();
+        for t60 in [0, COUNTER_MAX + 1] {
+            let forged = PhaseShifter { t60, ..s.clone() };
+            let e = fresh()
+                .restore_from(&forged.to_bytes().unwrap())
+                .unwrap_err();
+            assert!(e.starts_with(&format!("t60 = {t60} (rule:")), "{e}");
+        }
+        let e = s.check_at(Ticks(6399)).unwrap_err();
+        assert!(e.starts_with("shifter.entered_pre = 6400"), "{e}");
+        let far = PhaseShifter {
+            post_end: Ticks(6400 + 1000 * CLK + 1),
+            ..s.clone()
+        };
+        assert!(
+            far.check_at(Ticks(6400))
+                .unwrap_err()
+                .starts_with("shifter.post_end = ")
+        );
+    }
 
     /// Drives a shifter with a clean Z_d of 60° period `t60` clocks: the sensed phase is at
     /// its pre level until the crossing at 60°·k, then at its post level. Returns the

@@ -71,7 +71,7 @@ impl SpeedMeter {
                 23_437_500 * u64::from(self.edges) / self.pole_pairs
             };
             self.rpm = (numerator / n).min(u64::from(u32::MAX)) as u32;
-            self.measurements += 1;
+            self.measurements = self.measurements.saturating_add(1);
             self.start = Some(now);
             self.edges = 0;
         }
@@ -102,11 +102,109 @@ drive_core::persist_fields!(SpeedMeter {
     edges,
     rpm,
     measurements
-});
+} then SpeedMeter::check_restored);
+
+impl SpeedMeter {
+    /// The fastest reading \[rpm\]: a measurement over one counter clock.
+    pub fn max_rpm(&self) -> u64 {
+        self.numerator
+    }
+
+    /// A measurement under way counts fewer edges than it spans (none before it begins);
+    /// a reading is one the counter gives (none before the first measurement).
+    fn check_restored(&self) -> Result<(), String> {
+        use drive_core::state::check;
+        let (edges, periods) = (self.edges, self.periods);
+        check(
+            edges < periods && (self.start.is_some() || edges == 0),
+            || {
+                format!(
+                    "edges = {edges} (rule: fewer than the {periods} periods a measurement spans, 0 before its first edge)"
+                )
+            },
+        )?;
+        let max = self.numerator;
+        check(
+            u64::from(self.rpm) <= max && (self.measurements > 0 || self.rpm == 0),
+            || {
+                format!(
+                    "rpm = {} (rule: a reading of at least one counter clock, at most {max} rpm; 0 before the first)",
+                    self.rpm
+                )
+            },
+        )?;
+        drive_core::state::check_count("measurements", self.measurements)
+    }
+
+    /// A restored measurement began by the engine's instant `now`.
+    pub(crate) fn check_at(&self, now: Ticks) -> Result<(), String> {
+        drive_core::state::check(self.start.is_none_or(|s| s <= now), || {
+            format!(
+                "speed.start = {:?} (rule: an FG edge by now = {})",
+                self.start, now.0
+            )
+        })
+    }
+}
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_restored_measurement_keeps_the_meter_s_rules() {
+        use drive_core::Persist;
+        let mut m = SpeedMeter::new(10, 15, 6);
+        let period = Ticks::from_seconds(1.0 / 300.0).unwrap();
+        for k in 0..=13 {
+            m.fg_rising(Ticks(period.0 * k));
+        }
+        let fresh = || SpeedMeter::new(10, 15, 6);
+        fresh().restore_from(&m.to_bytes().unwrap()).unwrap();
+        let refused = |f: SpeedMeter, want: &str| {
+            let e = fresh().restore_from(&f.to_bytes().unwrap()).unwrap_err();
+            assert!(e.starts_with(want), "{e}");
+        };
+        refused(
+            SpeedMeter {
+                edges: 10,
+                ..m.clone()
+            },
+            "edges = 10 (rule: fewer than the 10",
+        );
+        // One counter clock over ten FG periods at P = 12: 39 062 500 rpm at most.
+        refused(
+            SpeedMeter {
+                rpm: 39_062_501,
+                ..m.clone()
+            },
+            "rpm = 39062501 (rule:",
+        );
+        refused(
+            SpeedMeter {
+                measurements: 0,
+                ..m.clone()
+            },
+            "rpm = 3000 (rule:",
+        );
+        refused(
+            SpeedMeter {
+                measurements: u64::MAX,
+                ..m.clone()
+            },
+            "measurements = ",
+        );
+        let late = SpeedMeter {
+            start: Some(Ticks(1 << 40)),
+            ..m.clone()
+        };
+        assert!(
+            late.check_at(Ticks(1 << 39))
+                .unwrap_err()
+                .starts_with("speed.start = ")
+        );
+        late.check_at(Ticks(1 << 40)).unwrap();
+    }
 
     #[test]
     fn chip_formula_for_12_poles_and_10_periods() {

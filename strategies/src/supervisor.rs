@@ -163,7 +163,8 @@ impl Supervisor {
             self.quiet = 0;
             self.coast_min = None;
         } else {
-            self.quiet += 1;
+            // Saturating: only its reaching 2 matters (16 days of quiet updates overflow).
+            self.quiet = self.quiet.saturating_add(1);
         }
         if self.quiet >= 2
             && let Some(rpm) = u.meter_rpm
@@ -174,7 +175,7 @@ impl Supervisor {
         }
         if trip {
             self.reset();
-            self.trips += 1;
+            self.trips = self.trips.saturating_add(1);
         }
         trip
     }
@@ -190,7 +191,7 @@ impl Supervisor {
         let trip = self.blind >= self.blind_sectors;
         if trip {
             self.reset();
-            self.trips += 1;
+            self.trips = self.trips.saturating_add(1);
         }
         trip
     }
@@ -210,6 +211,45 @@ drive_core::persist_fields!(Supervisor {
     trips
 });
 
+impl Supervisor {
+    /// As the updates leave it: the history within its `updates` bits, fewer than half of
+    /// them implausible (half trip it, and a trip clears it), fewer blind crossings in a
+    /// row than trip it, and the lowest coasting reading one the meter gives (a whole
+    /// number of rpm, `max_rpm` at most). Disabled, it keeps nothing.
+    pub(crate) fn check_restored_with(&self, max_rpm: u64) -> Result<(), String> {
+        use drive_core::state::check;
+        let n = self.updates;
+        let ones = self.history.count_ones();
+        check((n >= 32 || self.history >> n == 0) && 2 * ones < n, || {
+            format!(
+                "supervisor.history = {:#x} (rule: within its {n} bits, fewer than half set, else it trips)",
+                self.history
+            )
+        })?;
+        check(self.blind < self.blind_sectors, || {
+            format!(
+                "supervisor.blind = {} (rule: fewer than the {} blind crossings that trip it)",
+                self.blind, self.blind_sectors
+            )
+        })?;
+        check(
+            self.coast_min
+                .is_none_or(|m| m.fract() == 0.0 && (0.0..=max_rpm as f64).contains(&m)),
+            || {
+                format!(
+                    "supervisor.coast_min = {:?} (rule: a meter reading, a whole number of rpm up to {max_rpm})",
+                    self.coast_min
+                )
+            },
+        )?;
+        check(
+            self.enabled
+                || (self.history, self.quiet, self.blind, self.coast_min) == (0, 0, 0, None),
+            || "supervisor (rule: disabled, it keeps no history)".to_string(),
+        )
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -225,6 +265,68 @@ mod tests {
             supervisor_locked_share: 0.03,
             ..ControlParams::default()
         })
+    }
+
+    #[test]
+    fn a_restored_history_is_one_the_updates_leave() {
+        let s = sup();
+        s.check_restored_with(40_000).unwrap();
+        let refused = |f: Supervisor, want: &str| {
+            let e = f.check_restored_with(40_000).unwrap_err();
+            assert!(e.starts_with(want), "{e}");
+        };
+        // 8 updates: 4 implausible trip it (and clear it), and bits beyond 8 are none.
+        refused(
+            Supervisor {
+                history: 0b1111,
+                ..s.clone()
+            },
+            "supervisor.history = 0xf",
+        );
+        refused(
+            Supervisor {
+                history: 1 << 8,
+                ..s.clone()
+            },
+            "supervisor.history = 0x100",
+        );
+        Supervisor {
+            history: 0b0111,
+            ..s.clone()
+        }
+        .check_restored_with(40_000)
+        .unwrap();
+        refused(
+            Supervisor {
+                blind: 12,
+                ..s.clone()
+            },
+            "supervisor.blind = 12 (rule: fewer than the 12",
+        );
+        refused(
+            Supervisor {
+                coast_min: Some(1e30),
+                ..s.clone()
+            },
+            "supervisor.coast_min = Some(1e30)",
+        );
+        refused(
+            Supervisor {
+                coast_min: Some(2999.5),
+                ..s.clone()
+            },
+            "supervisor.coast_min = Some(2999.5)",
+        );
+        let off = Supervisor {
+            enabled: false,
+            quiet: 3,
+            ..s.clone()
+        };
+        assert!(
+            off.check_restored_with(40_000)
+                .unwrap_err()
+                .contains("disabled")
+        );
     }
 
     #[test]

@@ -244,7 +244,12 @@ impl drive_core::Persist for Table {
         let mut deg = 0.0;
         r.field("conduction_deg", &mut deg)?;
         *self = match code {
-            0 => Table::SixStep,
+            0 if deg == 120.0 => Table::SixStep,
+            0 => {
+                return Err(format!(
+                    "conduction_deg = {deg} (rule: 120 for six-step, as saved)"
+                ));
+            }
             1 => {
                 if !(120.0..180.0).contains(&deg) {
                     return Err(format!(
