@@ -373,6 +373,13 @@ impl BldcPlant {
         );
     }
 
+    /// The fastest rotor a state at the present time may hold \[rpm\]: the no-load speed
+    /// at the largest supply the rules allow, and what the largest torques add since
+    /// t = 0 (see [`BldcPlant::set_rotor`]); a restored state beyond it is refused.
+    pub fn max_speed_rpm(&self) -> f64 {
+        self.bounds(self.t).speed * 60.0 / TAU
+    }
+
     /// Work counters.
     pub fn stats(&self) -> PlantStats {
         self.stats
@@ -492,16 +499,18 @@ impl BldcPlant {
     }
 
     /// For a restore: the kept solutions are the network's at the states they are kept
-    /// for, in every field (see `BldcPlant::solution_is`): `start` at the committed state
-    /// (at the last step's end angle when it carries that step's end derivative, first
-    /// same as last), and a step integrated ahead's at its end.
-    pub(crate) fn start_is_fresh(&self) -> bool {
+    /// for, in every field (see `BldcPlant::solution_differs`): `start` at the committed
+    /// state (at the last step's end angle when it carries that step's end derivative,
+    /// first same as last), and a step integrated ahead's at its end. `Err` names the
+    /// first field that differs.
+    pub(crate) fn check_solutions(&self) -> Result<(), String> {
         // A step integrated ahead is committed as it stands: its end solution must be
         // its end state's, as `start` becomes when it is.
         if let Some(la) = &self.lookahead
-            && !self.solution_is(&la.x1, (la.x1[THETA], la.sc1.0, la.sc1.1), &la.s1)
+            && let Some(e) =
+                self.solution_differs(&la.x1, (la.x1[THETA], la.sc1.0, la.sc1.1), &la.s1)
         {
-            return false;
+            return Err(format!("lookahead.s1.{e}"));
         }
         let x0 = self.x;
         let angle = match self.end_angle {
@@ -509,8 +518,13 @@ impl BldcPlant {
             Some(e) if e.0 == x0[THETA] && self.stats.steps % ANCHOR != 0 => e,
             _ => Self::base(&x0),
         };
-        self.solution_is(&x0, (x0[THETA], angle.1, angle.2), &self.start)
-            || (self.fsal && self.solution_is(&x0, angle, &self.start))
+        match self.solution_differs(&x0, (x0[THETA], angle.1, angle.2), &self.start) {
+            Some(_) if self.fsal && self.solution_differs(&x0, angle, &self.start).is_none() => {
+                Ok(())
+            }
+            Some(e) => Err(format!("start.{e}")),
+            None => Ok(()),
+        }
     }
 
     fn solve_near(&self, x: &State, base: (f64, f64, f64)) -> Solution {

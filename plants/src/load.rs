@@ -40,41 +40,50 @@ pub struct Load {
 pub(crate) const MAX_TORQUE_NM: f64 = 1.0;
 
 impl Load {
+    /// The largest load the rules allow, term by term.
+    pub(crate) const MAX: Load = Load {
+        active_nm: MAX_TORQUE_NM,
+        coulomb_nm: MAX_TORQUE_NM,
+        viscous_nms: 1.0,
+        fan_nms2: 1e-3,
+        inertia_kgm2: 1.0,
+    };
+
     /// Checks every rule; the error names the first term that breaks one.
     pub fn validate(&self) -> Result<(), ParamError> {
         check_range(
             "load.active_nm",
             self.active_nm,
-            -MAX_TORQUE_NM,
-            MAX_TORQUE_NM,
+            -Self::MAX.active_nm,
+            Self::MAX.active_nm,
             "must be finite, |T| <= 1 N·m",
         )?;
         check_range(
             "load.coulomb_nm",
             self.coulomb_nm,
             0.0,
-            MAX_TORQUE_NM,
+            Self::MAX.coulomb_nm,
             "must be 0..=1 N·m",
         )?;
         check_range(
             "load.viscous_nms",
             self.viscous_nms,
             0.0,
-            1.0,
+            Self::MAX.viscous_nms,
             "must be 0..=1 N·m·s/rad",
         )?;
         check_range(
             "load.fan_nms2",
             self.fan_nms2,
             0.0,
-            1e-3,
+            Self::MAX.fan_nms2,
             "must be 0..=1e-3 N·m·s²/rad²",
         )?;
         check_range(
             "load.inertia_kgm2",
             self.inertia_kgm2,
             0.0,
-            1.0,
+            Self::MAX.inertia_kgm2,
             "must be 0..=1 kg·m²",
         )
     }

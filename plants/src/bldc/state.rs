@@ -152,11 +152,13 @@ impl Persist for BldcPlant {
         restore_x(r, "fsal.0", &mut x)?;
         restore_x(r, "fsal.1", &mut f)?;
         // As saved: the committed state when the flag is set, zeros otherwise.
-        check(x == if some { self.x } else { State::zeros() }, || {
-            format!(
-                "fsal.0 (rule: the committed state x when fsal = {some}, as saved; zeros without it)"
-            )
-        })?;
+        let kept = if some { self.x } else { State::zeros() };
+        if let Some(k) = (0..x.len()).find(|&k| x[k] != kept[k]) {
+            return Err(format!(
+                "fsal.0.[{k}] = {} (rule: {}, as saved: the committed state's when the flag is set, 0 without it)",
+                x[k], kept[k]
+            ));
+        }
         zeros("fsal.1", &f)?;
         self.fsal = some;
         r.field("end_angle", &mut self.end_angle)?;
@@ -172,9 +174,8 @@ impl Persist for BldcPlant {
         self.lin = circuit::state_index(&self.modes);
         self.verify_start = true;
         self.check_bounds()?;
-        check(self.start_is_fresh(), || {
-            "start (rule: the network's solution at the restored state, within 1e-9)".into()
-        })?;
+        self.check_solutions()?;
+        self.check_lookahead_derivative()?;
         r.field("cmp", &mut self.cmp)?;
         r.field("cur", &mut self.cur)?;
         // The sensing chains at the end of the step integrated ahead, if any.
@@ -192,7 +193,7 @@ impl Persist for BldcPlant {
 }
 
 /// The currents and the speed of a state within `b`.
-fn check_dynamic(name: &str, x: &State, b: &Bounds) -> Result<(), String> {
+fn check_dynamic(name: &str, x: &State, t: f64, b: &Bounds) -> Result<(), String> {
     for k in 0..3 {
         check(x[k].abs() <= b.current, || {
             format!(
@@ -206,7 +207,27 @@ fn check_dynamic(name: &str, x: &State, b: &Bounds) -> Result<(), String> {
             "{name}.[{OMEGA}] = {} (rule: a rotor speed |ωm| <= {} rad/s, the no-load speed at the largest supply and what the largest torques add since t = 0, see BldcPlant::bounds)",
             x[OMEGA], b.speed
         )
-    })
+    })?;
+    // The integrals since t = 0 of powers and torques within their bounds: the losses
+    // (copper, switch, diode, shunt, friction) and ∫Te² dt never negative.
+    for j in 0..super::INTEGRALS {
+        let k = super::E_SUPPLY + j;
+        let (rate, name_j) = match j {
+            9 => (b.torque, "∫Te dt, |Te| <="),
+            10 => (b.torque * b.torque, "∫Te² dt, Te² <="),
+            _ => (b.power, "an energy, |P| <="),
+        };
+        let lim = rate * t;
+        let signed = matches!(j, 1..=5 | 10);
+        check(x[k].abs() <= lim && (!signed || x[k] >= 0.0), || {
+            format!(
+                "{name}.[{k}] = {} (rule: {name_j} {rate} for t = {t} s, so |x| <= {lim}{})",
+                x[k],
+                if signed { ", never negative" } else { "" }
+            )
+        })?;
+    }
+    Ok(())
 }
 
 /// A sine and cosine pair of one angle (they are carried from step to step).
@@ -245,6 +266,9 @@ pub(crate) struct Bounds {
     pub(crate) emf_rate: f64,
     /// |i_x| of each winding \[A\].
     pub(crate) current: f64,
+    /// |Te| [N·m], and |P| of every power the energy integrals sum \[W\].
+    pub(crate) torque: f64,
+    pub(crate) power: f64,
     /// |v| of every terminal, the neutral, and the sensing filters they drive \[V\].
     pub(crate) volts: f64,
 }
@@ -272,7 +296,11 @@ impl BldcPlant {
     /// - a terminal lies between the rails widened by the drops of that current across a
     ///   switch, a diode and the shunt (three phase currents), the neutral within a
     ///   back-EMF of them, and the sensing filters within what drives them:
-    ///   |v| ≤ V + (R_on + R_d + 3·R_sh)·|i|max + E.
+    ///   |v| ≤ V + (R_on + R_d + 3·R_sh)·|i|max + E;
+    /// - the torque is within 3·(P/2)·λr·f̂·|i|max, and every power the energy integrals
+    ///   sum within the electrical ones (supply, copper, switch, diode and shunt losses,
+    ///   airgap) and the mechanical ones (the torque, friction and the largest load the
+    ///   rules allow, [`Load::MAX`], at the speed bound) added up.
     pub(crate) fn bounds(&self, t: f64) -> Bounds {
         let m = &self.params.motor;
         let ps = &self.params.power_stage;
@@ -296,7 +324,16 @@ impl BldcPlant {
         let emf_rate = kl * (accel * peak + self.pp * speed * speed * slope);
         let current = 2.0 * (drive + 2.0 * emf) / m.resistance_ohm;
         let drops = ps.switch_on_resistance_ohm + ps.diode_resistance_ohm + 3.0 * ps.shunt_ohm;
+        let te = 3.0 * kl * peak * current;
+        let i = current;
+        let electrical = 3.0 * i * (MAX_SUPPLY_V + ps.diode_forward_v + emf)
+            + i * i * (3.0 * (m.resistance_ohm + drops) + 9.0 * ps.shunt_ohm);
+        let l = Load::MAX;
+        let drag = m.viscous_friction_nms * speed + m.coulomb_friction_nm;
+        let load = l.active_nm + l.coulomb_nm + (l.viscous_nms + l.fan_nms2 * speed) * speed;
         Bounds {
+            torque: te,
+            power: electrical + (te + drag + load) * speed,
             speed,
             emf_rate,
             current,
@@ -305,14 +342,13 @@ impl BldcPlant {
     }
 
     /// The restored state lies within its [`Bounds`]: the committed state and the step
-    /// integrated ahead (the currents and the speed; the angle is checked with the times;
-    /// the energy integrals are sums over the run that feed nothing back, finite), every
-    /// angle kept with its sine and cosine is one, and what the step integrated ahead keeps
-    /// follows from its start: it starts at the committed state, at its angle, with the
-    /// derivative there.
+    /// integrated ahead (the currents, the speed and the integrals; the angle is checked
+    /// with the times), every angle kept with its sine and cosine is one, and the step
+    /// integrated ahead starts at the committed state, at its angle (its derivative there
+    /// is checked once the solution there is: `check_lookahead_derivative`).
     fn check_bounds(&self) -> Result<(), String> {
         let b = self.bounds(self.t);
-        check_dynamic("x", &self.x, &b)?;
+        check_dynamic("x", &self.x, self.t, &b)?;
         // An angle a step reaches from 0..2π, before its wrap: kept with its sine and cosine.
         let reach = TAU + self.pp * b.speed * (self.h_max + TICK_S);
         let triple = |name: &str, (a, s, c): (f64, f64, f64)| {
@@ -328,10 +364,12 @@ impl BldcPlant {
             triple("end_angle", e)?;
         }
         if let Some(la) = &self.lookahead {
-            check(la.x0 == self.x, || {
-                "lookahead.x0 (rule: the committed state x, where the step integrated ahead starts)"
-                    .into()
-            })?;
+            if let Some(k) = (0..la.x0.len()).find(|&k| la.x0[k] != self.x[k]) {
+                return Err(format!(
+                    "lookahead.x0.[{k}] = {} (rule: the committed state's x.[{k}] = {}, where the step integrated ahead starts)",
+                    la.x0[k], self.x[k]
+                ));
+            }
             check(la.base.0 == la.x0[THETA], || {
                 format!(
                     "lookahead.base.0 = {} (rule: the angle of lookahead.x0, {})",
@@ -339,28 +377,52 @@ impl BldcPlant {
                 )
             })?;
             triple("lookahead.base", la.base)?;
-            check_dynamic("lookahead.x1", &la.x1, &self.bounds(la.t1))?;
+            check_dynamic("lookahead.x1", &la.x1, la.t1, &self.bounds(la.t1))?;
+            let th = la.x1[THETA];
+            check(th.abs() <= reach, || {
+                format!(
+                    "lookahead.x1.[{THETA}] = {th} (rule: an angle a step reaches from 0..2π, within ±{reach} rad)"
+                )
+            })?;
             triple("lookahead.sc1", (la.x1[THETA], la.sc1.0, la.sc1.1))?;
-            // The derivative at the start, from the network's solution there (`start`,
-            // checked to be x0's with the rest of the restore).
-            let f0 = self.end_derivative(&la.x0, &self.start, la.base);
-            if let Some(k) = (0..f0.len()).find(|&k| !close(la.f0[k], f0[k])) {
-                return Err(format!(
-                    "lookahead.f0.[{k}] = {} (rule: the derivative at lookahead.x0, {}, within 1e-9)",
-                    la.f0[k], f0[k]
-                ));
-            }
         }
         Ok(())
+    }
+
+    /// The step integrated ahead's derivative at its start, from the network's solution
+    /// there (`start`, checked to be x0's first: see [`BldcPlant::check_solutions`]).
+    fn check_lookahead_derivative(&self) -> Result<(), String> {
+        let Some(la) = &self.lookahead else {
+            return Ok(());
+        };
+        let f0 = self.end_derivative(&la.x0, &self.start, la.base);
+        match (0..f0.len()).find(|&k| !close(la.f0[k], f0[k])) {
+            None => Ok(()),
+            Some(k) => Err(format!(
+                "lookahead.f0.[{k}] = {} (rule: the derivative at lookahead.x0, {}, within 1e-9)",
+                la.f0[k], f0[k]
+            )),
+        }
     }
 
     /// The network's solution at state `x` whose angle with its sine and cosine is
     /// `angle`, compared with the kept `sol` in every field (see [`close`]): the rates of
     /// the currents, terminal and neutral voltages, shunt current, the supply and airgap
-    /// powers, and the losses, made (as a solve makes them) or not yet (marked so).
-    pub(crate) fn solution_is(&self, x: &State, angle: (f64, f64, f64), sol: &Solution) -> bool {
+    /// powers, and the losses, made (as a solve makes them) or not yet (marked so). The
+    /// first field that differs, named with its value and the solution's.
+    pub(crate) fn solution_differs(
+        &self,
+        x: &State,
+        angle: (f64, f64, f64),
+        sol: &Solution,
+    ) -> Option<String> {
+        let rule = |name: &str, got: f64, want: String| {
+            Some(format!(
+                "{name} = {got} (rule: the network's solution at the state, {want}, within 1e-9)"
+            ))
+        };
         if x.iter().any(|v| !v.is_finite()) {
-            return false;
+            return rule("di.u", sol.di.u, "none: the state is not finite".into());
         }
         let f = emf::shape_with(&self.shape, angle.0, (angle.1, angle.2));
         let k = self.lambda * self.pp * x[OMEGA];
@@ -370,36 +432,47 @@ impl BldcPlant {
             .circuit
             .solve_planned_losses_later(plan, &self.modes, &i, &f.map(|v| k * v));
         let (p, q) = (&sol.powers, &s.powers);
-        let losses = if p.has_losses() {
-            let m = if q.has_losses() {
-                *q
-            } else {
-                self.circuit.with_losses(plan, &i, &s)
-            };
-            [
-                (p.copper, m.copper),
-                (p.switch, m.switch),
-                (p.diode, m.diode),
-                (p.shunt, m.shunt),
-            ]
-            .iter()
-            .all(|&(a, b)| close(a, b))
+        let made = if q.has_losses() {
+            *q
         } else {
-            !q.has_losses() && (p.switch, p.diode, p.shunt) == (q.switch, q.diode, q.shunt)
+            self.circuit.with_losses(plan, &i, &s)
         };
-        let pairs = [
-            (sol.di.u, s.di.u),
-            (sol.di.v, s.di.v),
-            (sol.di.w, s.di.w),
-            (sol.v_term.u, s.v_term.u),
-            (sol.v_term.v, s.v_term.v),
-            (sol.v_term.w, s.v_term.w),
-            (sol.v_n, s.v_n),
-            (sol.i_shunt, s.i_shunt),
-            (p.supply, q.supply),
-            (p.airgap, q.airgap),
+        let fields = [
+            ("di.u", sol.di.u, s.di.u),
+            ("di.v", sol.di.v, s.di.v),
+            ("di.w", sol.di.w, s.di.w),
+            ("v_term.u", sol.v_term.u, s.v_term.u),
+            ("v_term.v", sol.v_term.v, s.v_term.v),
+            ("v_term.w", sol.v_term.w, s.v_term.w),
+            ("v_n", sol.v_n, s.v_n),
+            ("i_shunt", sol.i_shunt, s.i_shunt),
+            ("powers.supply", p.supply, q.supply),
+            ("powers.airgap", p.airgap, q.airgap),
         ];
-        losses && pairs.iter().all(|&(a, b)| close(a, b))
+        if let Some(&(name, got, want)) = fields.iter().find(|f| !close(f.1, f.2)) {
+            return rule(name, got, want.to_string());
+        }
+        let losses = [
+            ("powers.copper", p.copper, made.copper, q.copper),
+            ("powers.switch", p.switch, made.switch, q.switch),
+            ("powers.diode", p.diode, made.diode, q.diode),
+            ("powers.shunt", p.shunt, made.shunt, q.shunt),
+        ];
+        if p.has_losses() {
+            losses
+                .iter()
+                .find(|l| !close(l.1, l.2))
+                .and_then(|&(name, got, want, _)| rule(name, got, want.to_string()))
+        } else if q.has_losses() {
+            rule("powers.copper", p.copper, format!("{}, made", q.copper))
+        } else {
+            losses
+                .iter()
+                .find(|l| l.1.to_bits() != l.3.to_bits())
+                .and_then(|&(name, got, _, unmade)| {
+                    rule(name, got, format!("{unmade}, not made yet"))
+                })
+        }
     }
 
     /// The longest step \[ticks\], with a tick to spare for rounding.
@@ -439,16 +512,19 @@ impl BldcPlant {
             },
         )?;
         if let Some(la) = &self.lookahead {
-            let slack = 1e-12;
-            check(
-                la.t0 <= t + slack && t <= la.t1 + slack && la.t1 - la.t0 <= self.h_max + TICK_S,
-                || {
-                    format!(
-                        "lookahead from {} s to {} s (rule: around t = {t} s, at most the longest step {} s)",
-                        la.t0, la.t1, self.h_max
-                    )
-                },
-            )?;
+            let (slack, h) = (1e-12, self.h_max + TICK_S);
+            check(la.t0 <= t + slack && t - la.t0 <= h, || {
+                format!(
+                    "lookahead.t0 = {} (rule: the start of a step around t = {t} s, at most the longest step {} s)",
+                    la.t0, self.h_max
+                )
+            })?;
+            check(t <= la.t1 + slack && la.t1 - la.t0 <= h, || {
+                format!(
+                    "lookahead.t1 = {} (rule: the end of a step around t = {t} s from lookahead.t0 = {} s, at most the longest step {} s)",
+                    la.t1, la.t0, self.h_max
+                )
+            })?;
         }
         Ok(())
     }
@@ -554,7 +630,12 @@ mod tests {
         assert_eq!(held, pl.start.v_term.u, "the offset of start.v_term.u");
         for x in [1e300, held + 1e-3] {
             let e = refuse(v_term_u, x);
-            assert!(e.starts_with("start (rule: the network's solution"), "{e}");
+            assert!(
+                e.starts_with(&format!(
+                    "start.v_term.u = {x} (rule: the network's solution at the state, {held}"
+                )),
+                "{e}"
+            );
         }
         // The sensing chains come last: the comparators' filter y.u first, then the
         // current sense's filter.

@@ -134,9 +134,9 @@ pub(crate) struct Limits {
 }
 
 impl Limits {
-    /// |y| of a filter over a step of `h` \[s\]: its inputs' range, and a floating leg's
-    /// bend on top, a cubic vanishing at the step's ends whose end slopes are the
-    /// back-EMF's rate less the chord's (each at most 2·volts/h), so within
+    /// |y| of a filter whose steps are at most `h` \[s\] long: its inputs' range, and a
+    /// floating leg's bend on top, a cubic vanishing at a step's ends whose end slopes are
+    /// the back-EMF's rate less the chord's (each at most 2·volts/h), so within
     /// h·(4·volts/h + 2·|de/dt|) of the chord.
     fn filter(&self, h: f64) -> f64 {
         5.0 * self.volts + 2.0 * h * self.emf_rate
@@ -226,7 +226,8 @@ impl Front {
                 })?;
             }
         }
-        let bound = lim.filter(rec.h);
+        // A filter carries the bends of earlier steps too: the longest step's allowance.
+        let bound = lim.filter(lim.longest as f64 * TICK_S);
         for tau in [0.0, 0.5 * rec.h, rec.h] {
             let (y, terms) = self.outputs_in(rec, tau);
             if let Some(j) = (0..4).find(|&j| !within(y[j], bound, terms)) {
@@ -266,26 +267,43 @@ impl Front {
     /// The scan of channel `j` left pending: of the newest step, as [`Front::channel`]
     /// makes it from that step, its stationary value (once computed) that step's.
     fn check_pending(&self, j: usize, cur: &Cursor, newest: &Record) -> Result<(), String> {
-        let c = &cur.c;
-        let want = self.channel(newest, c.x);
-        let same = c.t0 == want.t0
-            && c.k_s == want.k_s
-            && c.base == want.base
-            && c.poly == want.poly
-            && c.beta == want.beta
-            && c.dev == want.dev
-            && c.a == want.a
-            && c.b == want.b
-            && c.ap == want.ap
-            && c.bn == want.bn
-            && c.stationary
-                .get()
-                .is_none_or(|g| g == self.stationary_value(&want));
-        check(same, || {
+        let (c, want) = (&cur.c, self.channel(newest, cur.c.x));
+        let fields = [
+            ("t0", c.t0, want.t0),
+            ("base.0", c.base.0, want.base.0),
+            ("base.1", c.base.1, want.base.1),
+            ("poly[0]", c.poly[0], want.poly[0]),
+            ("poly[1]", c.poly[1], want.poly[1]),
+            ("poly[2]", c.poly[2], want.poly[2]),
+            ("poly[3]", c.poly[3], want.poly[3]),
+            ("beta", c.beta, want.beta),
+            ("dev.0", c.dev.0, want.dev.0),
+            ("dev.1", c.dev.1, want.dev.1),
+            ("a", c.a, want.a),
+            ("b", c.b, want.b),
+            ("ap", c.ap, want.ap),
+            ("bn", c.bn, want.bn),
+        ];
+        if let Some((name, got, want)) = fields.into_iter().find(|f| f.1 != f.2) {
+            return Err(format!(
+                "cmp.pending[{j}].c.{name} = {got} (rule: the newest step's channel as its record makes it, {want})"
+            ));
+        }
+        check(c.k_s == want.k_s, || {
             format!(
-                "cmp.pending[{j}].c (rule: the channel of the newest step, as its record makes it)"
+                "cmp.pending[{j}].c.k_s = {} (rule: the newest step's first tick, {})",
+                c.k_s, want.k_s
             )
-        })
+        })?;
+        if let Some(g) = c.stationary.get() {
+            let v = self.stationary_value(&want);
+            check(g == v, || {
+                format!(
+                    "cmp.pending[{j}].c.stationary = {g} (rule: the channel's stationary value, {v})"
+                )
+            })?;
+        }
+        Ok(())
     }
 }
 
