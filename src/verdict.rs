@@ -191,7 +191,8 @@ impl SyncStreak {
     /// angle `theta_deg`; returns whether it was within the error.
     pub fn commutation(&mut self, theta_deg: f64, boundary_deg: f64) -> bool {
         let ok = wrap_deg(theta_deg - boundary_deg).abs() <= self.sync_error_deg;
-        self.streak = if ok { self.streak + 1 } else { 0 };
+        // Saturating: only its reaching `needed` matters.
+        self.streak = if ok { self.streak.saturating_add(1) } else { 0 };
         ok
     }
 
@@ -276,6 +277,28 @@ impl LiveVerdict {
     /// Whether the last two turns of commutations followed the true rotor.
     pub fn in_sync(&self) -> bool {
         self.streak.in_sync()
+    }
+
+    /// Checks a verdict restored from a state against the drive it judges, at time `t_s`
+    /// \[s\] with its rotor's speed bound `max_rpm` (see
+    /// `plants::bldc::BldcPlant::max_speed_rpm`): the low-passed speed is a mean of true
+    /// speeds, so within that bound, and the last speed was taken by `t_s`.
+    pub fn check_restored(&self, t_s: f64, max_rpm: f64) -> Result<(), String> {
+        drive_core::state::check(self.mean_rpm.abs() <= max_rpm, || {
+            format!(
+                "mean_rpm = {} (rule: a mean of true speeds, |ω| <= {max_rpm} rpm)",
+                self.mean_rpm
+            )
+        })?;
+        drive_core::state::check(
+            self.last_t_s.is_none_or(|t| (0.0..=t_s).contains(&t)),
+            || {
+                format!(
+                    "last_t_s = {:?} (rule: an instant of the run, by its time {t_s} s)",
+                    self.last_t_s
+                )
+            },
+        )
     }
 
     /// The verdict against `command_rpm`, with the plant's state `finite` and the

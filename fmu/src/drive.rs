@@ -5,7 +5,7 @@ use crate::variables::{Input, Output, Role, Text, table};
 use bldc_drive::DriveConfig;
 use bldc_drive::drive::{DriveEngine, build, build_plugin};
 use bldc_drive::drive_core::state::{Persist, Reader, Writer};
-use bldc_drive::drive_core::{EngineError, ParamError, StopReason, Ticks, persist_fields};
+use bldc_drive::drive_core::{EngineError, ParamError, Plant, StopReason, Ticks, persist_fields};
 use bldc_drive::plants::Load;
 use bldc_drive::strategies::Mode;
 use bldc_drive::strategies::PluginLibrary;
@@ -382,14 +382,30 @@ impl Persist for Drive {
                 };
                 if !ok {
                     return Err(format!(
-                        "applied `{}` = {x} (rule: a value the input takes, as fmi2Set* applies it)",
+                        "applied.[{}] = {x} (rule: a value the input `{}` takes, as fmi2Set* applies it)",
+                        slot(i),
                         v.name
                     ));
                 }
             }
         }
         r.field("sync", &mut self.sync)?;
-        r.field("engine", &mut self.engine)
+        r.field("engine", &mut self.engine)?;
+        // The verdict judges this drive: the speeds it low-passed are its rotor's, by its
+        // time, and the state it last saw is one of the table's.
+        let plant = &self.engine.plant;
+        self.sync
+            .live
+            .check_restored(plant.time_s(), plant.max_speed_rpm())
+            .map_err(|e| format!("sync.live.{e}"))?;
+        let states = self.engine.controller.table().states_per_turn();
+        let last = self.sync.last_state;
+        if u32::from(last) > states {
+            return Err(format!(
+                "sync.last_state = {last} (rule: a state of the table, 0..={states})"
+            ));
+        }
+        Ok(())
     }
 }
 
