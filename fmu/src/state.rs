@@ -162,6 +162,12 @@ pub fn deserialize(bytes: &[u8], resources: Option<&Path>) -> Result<Model, Stri
     };
     if drive.is_none() {
         check_unbuilt(phase, start_time, time)?;
+    } else if matches!(phase, Phase::Instantiated | Phase::InitializationMode) && time != start_time
+    {
+        // A drive built early (to answer output queries) has taken no step either.
+        return Err(format!(
+            "time = {time} in phase {phase:?} (rule: no step is taken before initialization ends: the start time {start_time})"
+        ));
     }
     if !r.rest().is_empty() {
         return Err(format!("{} trailing bytes", r.rest().len()));

@@ -303,3 +303,23 @@ fn the_size_is_fixed_for_every_parameter_at_its_bounds() {
     }
     assert!(checked > 50, "{checked} parameter bounds checked");
 }
+
+/// A state saved after steps whose phase is forged to one before initialization ends is
+/// refused (no step is taken before it ends): set, an input would then drop a drive
+/// whose time has moved, and the instance would save a state it refuses.
+#[test]
+fn a_running_state_forged_to_before_initialization_is_refused() {
+    let c = instance_with(&[], true);
+    run(c, 0.0, 0.005, 1e-3);
+    let state = bytes_of(c);
+    let at = HEADER + 8 + fmu::xml::guid().len();
+    assert_eq!(state[at], 2, "the phase, StepComplete");
+    for phase in [0, 1] {
+        let mut b = state.clone();
+        b[at] = phase;
+        reseal(&mut b);
+        let e = fmu::state::deserialize(&b, None).err().expect("accepted");
+        assert!(e.starts_with("time = 0.005 in phase"), "{e}");
+    }
+    fmi2FreeInstance(c);
+}
