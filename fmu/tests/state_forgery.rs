@@ -6,12 +6,13 @@
 // Calls the exported C functions as an importer does; every unsafe block says why it holds.
 #![allow(unsafe_code)]
 
+use bldc_drive::drive_core::state::Persist;
 use fmu::exports::states::{
     fmi2DeSerializeFMUstate, fmi2FreeFMUstate, fmi2GetFMUstate, fmi2SerializeFMUstate,
     fmi2SerializedFMUstateSize, fmi2SetFMUstate,
 };
 use fmu::exports::steps::{fmi2DoStep, fmi2GetRealStatus};
-use fmu::exports::values::fmi2SetReal;
+use fmu::exports::values::{fmi2SetInteger, fmi2SetReal};
 use fmu::exports::{
     fmi2EnterInitializationMode, fmi2ExitInitializationMode, fmi2FreeInstance, fmi2SetupExperiment,
 };
@@ -37,6 +38,26 @@ fn instance_with(params: &[(&str, f64)], init: bool) -> *mut c_void {
         if init {
             assert_eq!(fmi2ExitInitializationMode(c), OK);
         }
+    }
+    c
+}
+
+/// An initialized instance with `params` set by name, each by its kind.
+fn instance_of(params: &[(&str, f64)]) -> *mut c_void {
+    let c = instantiate("forgery");
+    // SAFETY: a live instance; arrays of the stated length.
+    unsafe {
+        assert_eq!(fmi2SetupExperiment(c, 0, 0.0, 0.0, 0, 0.0), OK);
+        assert_eq!(fmi2EnterInitializationMode(c), OK);
+        for &(name, x) in params {
+            let vr = vr_of(name).unwrap();
+            let st = match table()[vr as usize].kind {
+                Kind::Real => fmi2SetReal(c, &vr, 1, &x),
+                _ => fmi2SetInteger(c, &vr, 1, &(x as i32)),
+            };
+            assert_eq!(st, OK, "{name} = {x}");
+        }
+        assert_eq!(fmi2ExitInitializationMode(c), OK);
     }
     c
 }
@@ -302,6 +323,207 @@ fn the_size_is_fixed_for_every_parameter_at_its_bounds() {
         }
     }
     assert!(checked > 50, "{checked} parameter bounds checked");
+}
+
+/// The floats of the drive's dynamic state in a serialized state (which it ends), with
+/// their fields' paths, as a restore names them: NaN written over the 8 bytes at an
+/// offset is refused as "path = NaN (rule: finite)" exactly where a float starts.
+fn dynamic_floats(state: &[u8]) -> Vec<(usize, String)> {
+    let model = fmu::state::deserialize(state, None).unwrap();
+    let drive = model.drive.expect("a state with a drive");
+    let bytes = drive.to_bytes().unwrap();
+    let base = state.len() - bytes.len();
+    assert_eq!(
+        &state[base..],
+        &bytes[..],
+        "the drive's dynamic state ends the state"
+    );
+    let mut floats = Vec::new();
+    let mut at = 0;
+    while at + 8 <= bytes.len() {
+        let mut b = bytes.clone();
+        b[at..at + 8].copy_from_slice(&f64::NAN.to_bits().to_le_bytes());
+        match drive.try_clone().unwrap().restore_from(&b) {
+            Err(e) if e.contains(" = NaN (rule: finite)") => {
+                let path = e.split(" = NaN").next().unwrap();
+                floats.push((base + at, path.to_string()));
+                at += 8;
+            }
+            _ => at += 1,
+        }
+    }
+    floats
+}
+
+/// A field's path as refusals write it: indices without the dot ("records.buf[3]"), a
+/// tuple's fields with one ("base.0").
+fn normal(path: &str) -> String {
+    path.replace(".[", "[").replace("..", ".")
+}
+
+/// A refusal with its numbers' long decimal expansions cut (1e300 prints 301 digits).
+fn shorter(e: &str) -> String {
+    let mut out = String::new();
+    let mut run = 0;
+    for ch in e.chars() {
+        run = if ch.is_ascii_digit() { run + 1 } else { 0 };
+        if run <= 20 {
+            out.push(ch);
+        } else if run == 21 {
+            out.push('…');
+        }
+    }
+    out
+}
+
+/// A field's kind: its path without indices ("records.buf[].fx[].a").
+fn kind(path: &str) -> String {
+    let mut k = String::new();
+    let mut digits = false;
+    for ch in normal(path).chars() {
+        match ch {
+            '0'..='9' if digits => {}
+            '[' => {
+                k.push('[');
+                digits = true;
+            }
+            _ => {
+                digits = false;
+                k.push(ch);
+            }
+        }
+    }
+    k
+}
+
+/// Finite values beyond any rule (1e300, −1e300, 1e30) written over the floats of the
+/// drive's dynamic state, resealed, in states through alignment, start-up and running,
+/// and of six-step with noise, ringing and dead time (every kind of field covered: each
+/// float of a kind of up to 16, the first, middle and last of a larger one): each is
+/// refused at fmi2DeSerializeFMUstate naming the field (the value's own, or what it
+/// belongs to: a kept step whose filter output it moves out of its rule). Were one
+/// accepted, the next step would have to return fmi2OK with every output finite, or
+/// fmi2Error, and never panic; none is.
+#[test]
+fn finite_out_of_rule_values_in_the_dynamic_state_are_refused_naming_them() {
+    let six_step: &[(&str, f64)] = &[
+        ("strategy.name", 1.0),
+        ("sensing.comparator.noise_v", 0.02),
+        ("sensing.comparator.ring_gain", 0.1),
+        ("power_stage.dead_time_s", 1e-6),
+    ];
+    let mut kinds = std::collections::BTreeSet::new();
+    let (mut forged, mut accepted, mut unnamed) = (0, Vec::new(), Vec::new());
+    for (params, times) in [
+        (&[][..], &[0.3, 1.0, 1.5][..]),
+        (six_step, &[0.85, 1.05][..]),
+    ] {
+        let c = instance_of(params);
+        // SAFETY: a live instance, one value reference and one value.
+        unsafe {
+            let vr = vr_of("load_torque_nm").unwrap();
+            assert_eq!(fmi2SetReal(c, &vr, 1, &1e-4), OK);
+        }
+        let mut t = 0.0;
+        for &at_s in times {
+            t = run(c, t, at_s, 1e-3);
+            // A little more, so the state is not at a communication point's round number.
+            t = run(c, t, t + 7e-6, 7e-6);
+            let state = bytes_of(c);
+            let floats = dynamic_floats(&state);
+            let mut by_kind: std::collections::BTreeMap<String, Vec<&(usize, String)>> =
+                Default::default();
+            for f in &floats {
+                by_kind.entry(kind(&f.1)).or_default().push(f);
+            }
+            for (k, fs) in &by_kind {
+                kinds.insert(k.clone());
+                // Every one of a small kind (a state vector's components have rules of
+                // their own); the first, middle and last of a larger one.
+                let mut pick = if fs.len() <= 16 {
+                    fs.clone()
+                } else {
+                    vec![fs[0], fs[fs.len() / 2], fs[fs.len() - 1]]
+                };
+                pick.dedup();
+                for &(at, ref path) in pick {
+                    for x in [1e300f64, -1e300, 1e30] {
+                        let mut b = state.clone();
+                        b[at..at + 8].copy_from_slice(&x.to_bits().to_le_bytes());
+                        reseal(&mut b);
+                        forged += 1;
+                        let panics = caught_panics();
+                        // SAFETY: a live instance; `b` holds `b.len()` bytes; the state is
+                        // freed here.
+                        let refused = unsafe {
+                            let mut s = ptr::null_mut();
+                            if fmi2DeSerializeFMUstate(c, b.as_ptr().cast(), b.len(), &mut s) == OK
+                            {
+                                assert_eq!(fmi2SetFMUstate(c, s), OK);
+                                assert_eq!(fmi2FreeFMUstate(c, &mut s), OK);
+                                let mut now = f64::NAN;
+                                fmi2GetRealStatus(c, 2, &mut now);
+                                if fmi2DoStep(c, now, 2e-5, 1) == OK {
+                                    read_back(c).unwrap_or_else(|e| {
+                                        panic!("{path} = {x} at {at_s} s, stepped: {e}")
+                                    });
+                                }
+                                false
+                            } else {
+                                true
+                            }
+                        };
+                        assert_eq!(
+                            caught_panics(),
+                            panics,
+                            "{path} = {x}: a panic inside the FMU"
+                        );
+                        if !refused {
+                            accepted.push(format!("{path} = {x} at {at_s} s"));
+                            continue;
+                        }
+                        let Err(e) = fmu::state::deserialize(&b, None) else {
+                            panic!("{path} = {x}: refused by the FMU, accepted by deserialize")
+                        };
+                        // The field itself, or what it belongs to (a bend's coefficient:
+                        // the kept step), down to a component's part ("plant.cmp.front").
+                        let p = normal(path);
+                        let p = p.strip_prefix("drive.").unwrap_or(&p);
+                        let p = p.strip_prefix("engine.").unwrap_or(p);
+                        let mut names = vec![p.to_string()];
+                        while let Some((s, last)) = names.last().unwrap().rsplit_once(['.', '[']) {
+                            // A tuple's field is named with its tuple ("base_hint = (…)").
+                            let tuple = last.bytes().all(|b| b.is_ascii_digit());
+                            if s.split('.').count() < 3 && !tuple {
+                                break;
+                            }
+                            names.push(s.to_string());
+                        }
+                        let said = normal(&e);
+                        if !(said.contains("rule")
+                            && names.iter().any(|n| said.contains(n.as_str())))
+                        {
+                            unnamed.push(format!("{path} = {x:e} at {at_s} s: {}", shorter(&e)));
+                        }
+                    }
+                }
+            }
+            // The state itself still restores (the scan leaves the instance elsewhere).
+            assert_eq!(
+                restore_and_check(c, &state, false).map(|t| t.is_some()),
+                Ok(true)
+            );
+        }
+        fmi2FreeInstance(c);
+    }
+    eprintln!("{forged} forgeries over {} kinds of float", kinds.len());
+    assert!(kinds.len() > 100, "{} kinds: {kinds:?}", kinds.len());
+    assert!(accepted.is_empty(), "accepted: {accepted:#?}");
+    assert!(
+        unnamed.is_empty(),
+        "refused, but not naming the field: {unnamed:#?}"
+    );
+    assert_eq!(caught_panics(), 0);
 }
 
 /// A state saved after steps whose phase is forged to one before initialization ends is
