@@ -3,6 +3,8 @@
 # Everything beyond the Rust toolchain and python3 is installed here when missing.
 set -euo pipefail
 cd "$(dirname "$0")/.."
+# Each stage's start, with the seconds since the script began: where CI's time goes.
+stage() { echo "== [${SECONDS} s] $*"; }
 if ! command -v cargo >/dev/null 2>&1; then
     echo "error: cargo not found; install the Rust toolchain (https://rustup.rs) and retry" >&2
     exit 1
@@ -33,6 +35,11 @@ if [ -z "${LIBCLANG_PATH:-}" ]; then
     export LIBCLANG_PATH
     export BINDGEN_EXTRA_CLANG_ARGS="-I$(gcc -print-file-name=include)"
 fi
+# The FMU is built with the wheel's profile (release speed, no LTO): the workspace is then
+# compiled once for both, and the fmu crate's tests package the same build (xtask reads
+# FMU_PROFILE). What ships (`cargo xtask fmu`) is the release profile's, with fat LTO.
+export FMU_PROFILE=wheel
+stage "FMU (profile $FMU_PROFILE)"
 cargo xtask fmu >/dev/null
 # The Python package's tests need maturin, pytest, Dask, pandas, NumPy, pyarrow and
 # matplotlib (for the examples) in the same venv: pinned, installed when missing.
@@ -44,22 +51,24 @@ fi
 # The Python extension (bldc-drive-py) has no Rust tests (python/tests are its tests, run
 # below against the wheel): built here it only made a test executable with no test in it,
 # and compiled PyO3 a second time, under the test profile as well as the wheel's.
+stage "cargo test"
 cargo test --workspace --exclude bldc-drive-py --all-targets --locked "$@"
 # The API docs build without warnings (units in doc comments are written \[V\], not links).
+stage "cargo doc"
 RUSTDOCFLAGS="-D warnings" cargo doc --workspace --no-deps --locked --quiet
 # The plugins fmu/tests/fmi_plugin.py loads (the same build the Rust tests make).
 cargo build --profile test --locked -p example-plugin -p misbehaving-plugin
 
 for t in fmu/tests/*.py; do
     [ "$(basename "$t")" = fmu_paths.py ] && continue
-    echo "== $t"
+    stage "$t"
     "$venv/bin/python" "$t"
 done
 # The README's examples keep working: the FMU from Python here; the library's
 # (examples/library.rs) ran in `cargo test` above, as a test without harness.
-echo "== examples/fmu/quickstart.py"
+stage "examples/fmu/quickstart.py"
 "$venv/bin/python" examples/fmu/quickstart.py target/fmu/BldcDrive.fmu
-echo "== examples/fmu/speed_step.py"
+stage "examples/fmu/speed_step.py"
 "$venv/bin/python" examples/fmu/speed_step.py target/fmu/BldcDrive.fmu
 
 # The Python package: its wheel, installed into the venv; its examples, tiny; then its
@@ -67,16 +76,17 @@ echo "== examples/fmu/speed_step.py"
 # (opt-level 3, no LTO, 16 codegen units): `--profile test` would reuse what cargo test
 # compiled, but cargo builds the selected crate in test mode under that profile, which
 # makes the extension a test executable that Python cannot load.
-echo "== python: wheel"
+stage "python: wheel"
 wheels=target/python-wheels
 rm -rf "$wheels"
 "$venv/bin/maturin" build --quiet --locked --profile wheel -m python/Cargo.toml \
     -i "$venv/bin/python" -o "$wheels"
 "$venv/bin/pip" install --quiet --force-reinstall --no-deps "$wheels"/bldc_drive-*.whl
 for ex in "startup_montecarlo.py --samples 1 --duration-s 1.0" "speed_load_grid.py --speeds 2 --loads 2 --duration-s 0.5"; do
-    echo "== python/examples/$ex"
+    stage "python/examples/$ex"
     # shellcheck disable=SC2086 # the example's options are split on purpose
     "$venv/bin/python" python/examples/$ex --out "target/python-${ex%%.py*}.png" >/dev/null
 done
-echo "== python: pytest"
+stage "python: pytest"
 DRIVE_BENCH="${CARGO_TARGET_DIR:-target}/debug/drive-bench" "$venv/bin/python" -m pytest -q python/tests
+stage "done"

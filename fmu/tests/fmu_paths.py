@@ -6,7 +6,10 @@ import sys
 ROOT = os.path.abspath(os.path.join(os.path.dirname(__file__), "..", ".."))
 TARGET = os.environ.get("CARGO_TARGET_DIR", os.path.join(ROOT, "target"))
 FMU = os.path.join(TARGET, "fmu", "BldcDrive.fmu")
-NATIVE_TRACE = os.path.join(TARGET, "release", "native-trace")
+# The profile `cargo xtask fmu` built with (xtask's FMU_PROFILE, default release).
+_PROFILE = os.environ.get("FMU_PROFILE", "release")
+_PROFILE_DIR = {"dev": "debug", "test": "debug", "bench": "release"}.get(_PROFILE, _PROFILE)
+NATIVE_TRACE = os.path.join(TARGET, _PROFILE_DIR, "native-trace")
 # Built by scripts/test.sh (`cargo build --profile test -p example-plugin -p misbehaving-plugin`).
 PLUGIN_DIR = os.path.join(TARGET, "debug")
 EXAMPLE_PLUGIN = os.path.join(PLUGIN_DIR, "libexample_plugin.so")

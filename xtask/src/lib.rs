@@ -1,4 +1,5 @@
-//! Project tasks. `cargo xtask fmu` builds the FMU library in release mode and packages
+//! Project tasks. `cargo xtask fmu` builds the FMU library (release profile, or the one
+//! `FMU_PROFILE` names) and packages
 //! `target/fmu/BldcDrive.fmu`: `modelDescription.xml` (written by the fmu crate from its
 //! variable table) and `binaries/linux64/bldc_drive.so`; `--plugin PATH` adds a strategy
 //! plugin as `resources/<file name>`. `cargo xtask fmu-docs` writes docs/fmu-variables.md.
@@ -21,8 +22,34 @@ pub fn target_dir() -> PathBuf {
     std::env::var_os("CARGO_TARGET_DIR").map_or_else(|| root().join("target"), PathBuf::from)
 }
 
-/// Builds the release library and the model-description tool, writes the FMU, returns its
-/// path.
+/// The cargo profile the FMU is built with: `FMU_PROFILE` if set, else `release` (what
+/// ships: fat LTO, one codegen unit). scripts/test.sh sets `wheel`, the profile the Python
+/// wheel is built with, so CI compiles the workspace once for both at release speed
+/// without minutes of LTO; the drive's figures are the same, bit for bit (no fast-math).
+pub fn fmu_profile() -> Result<String, String> {
+    let p = std::env::var("FMU_PROFILE").unwrap_or_else(|_| "release".into());
+    let ok = !p.is_empty()
+        && p.chars()
+            .all(|c| c.is_ascii_alphanumeric() || c == '-' || c == '_');
+    if ok {
+        Ok(p)
+    } else {
+        Err(format!(
+            "FMU_PROFILE = `{p}` (rule: a cargo profile name: letters, digits, - and _)"
+        ))
+    }
+}
+
+/// Where cargo puts a profile's build.
+fn profile_dir(profile: &str) -> PathBuf {
+    target_dir().join(match profile {
+        "dev" | "test" => "debug",
+        "release" | "bench" => "release",
+        p => p,
+    })
+}
+
+/// Builds the library and the model-description tool, writes the FMU, returns its path.
 pub fn package_fmu() -> Result<PathBuf, String> {
     package_fmu_with(None, &target_dir().join("fmu").join("BldcDrive.fmu"))
 }
@@ -33,15 +60,16 @@ pub fn package_fmu() -> Result<PathBuf, String> {
 pub fn package_fmu_with(plugin: Option<&Path>, out: &Path) -> Result<PathBuf, String> {
     // A missing file is reported before the build, an invalid one before packing.
     let name = plugin.map(plugin_name).transpose()?;
-    build_fmu_crate()?;
-    let release = target_dir().join("release");
-    let tool = release.join("model-description");
+    let profile = fmu_profile()?;
+    build_fmu_crate(&profile)?;
+    let built = profile_dir(&profile);
+    let tool = built.join("model-description");
     let mut entries: Vec<(String, Vec<u8>)> = Vec::new();
     if let (Some(p), Some(name)) = (plugin, name) {
         entries.push(plugin_entry(&tool, p, name)?);
     }
     let xml = run(&mut Command::new(&tool))?;
-    let so = shared_object(&release.join("libfmu.so"))?;
+    let so = shared_object(&built.join("libfmu.so"))?;
     entries.insert(0, ("modelDescription.xml".into(), xml));
     entries.insert(1, ("binaries/linux64/bldc_drive.so".into(), so));
     let refs: Vec<(&str, &[u8])> = entries
@@ -63,21 +91,23 @@ pub fn package_fmu_with(plugin: Option<&Path>, out: &Path) -> Result<PathBuf, St
 
 /// Writes docs/fmu-variables.md from the variable table; returns its path.
 pub fn write_fmu_docs() -> Result<PathBuf, String> {
-    build_fmu_crate()?;
-    let tool = target_dir().join("release").join("model-description");
+    let profile = fmu_profile()?;
+    build_fmu_crate(&profile)?;
+    let tool = profile_dir(&profile).join("model-description");
     let text = run(Command::new(tool).arg("--variables-md"))?;
     let out = root().join("docs").join("fmu-variables.md");
     std::fs::write(&out, text).map_err(|e| format!("{}: {e}", out.display()))?;
     Ok(out)
 }
 
-fn build_fmu_crate() -> Result<(), String> {
+fn build_fmu_crate(profile: &str) -> Result<(), String> {
     let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
     let status = Command::new(&cargo)
         .current_dir(root())
         .args([
             "build",
-            "--release",
+            "--profile",
+            profile,
             "--package",
             "fmu",
             "--lib",
