@@ -610,7 +610,7 @@ fn markdown(c: &Comparison, config: &DriveConfig, crossings: &[String]) -> Strin
     s.push_str(&metrics_reference(c.plan.grid_duration_s));
     let _ = writeln!(
         s,
-        "\n## Speed range\n\nJudged by the verdict ({}). Each bound is followed by what stops it: the verdict of the failed run just beyond it.\n\n| strategy | meter | floor rpm | limited by | top rpm | limited by | runs |\n|---|---|---:|---|---:|---|---:|",
+        "\n## Speed range\n\nJudged by the verdict ({}). Each bound is followed by what stops it: the verdict of the failed run just beyond it. Why the guarded strategies lose the rotor where they do (the commutation drifting early as the back-EMF shrinks toward the comparator front end's PWM-edge spike) is shown in \"What sets the floors\" below.\n\n| strategy | meter | floor rpm | limited by | top rpm | limited by | runs |\n|---|---|---:|---|---:|---|---:|",
         super::range::CRITERION
     );
     let lim = |l: &Option<super::range::Limit>| {
