@@ -6,7 +6,7 @@
 
 use super::{BldcPlant, State, dynamic};
 use crate::circuit::{Conduction, Solution};
-use drive_core::Phase;
+use drive_core::{Phase, PlantStop};
 
 /// A freewheeling current this close to zero \[A\] at the dense output's guess of its zero
 /// is taken there by one Newton step along the state's derivative, x + f·dh, rather than a
@@ -22,12 +22,12 @@ const SHORTCUT_ERR_A: f64 = 1e-12;
 /// copy of four states per step costs more than the search usually does. Of the end's
 /// derivative it takes the currents' alone (the network's di/dt there), which is all the
 /// search interpolates.
-pub(super) struct Dense<'a> {
-    pub(super) x0: &'a State,
-    pub(super) f0: &'a State,
-    pub(super) x1: &'a State,
-    pub(super) di1: [f64; 3],
-    pub(super) h: f64,
+struct Dense<'a> {
+    x0: &'a State,
+    f0: &'a State,
+    x1: &'a State,
+    di1: [f64; 3],
+    h: f64,
 }
 
 impl Dense<'_> {
@@ -43,6 +43,82 @@ impl Dense<'_> {
 }
 
 impl BldcPlant {
+    /// The first diode event found after the step of `h` from `x0` (derivative `f0`, angle
+    /// base `b0`) to `x1` (network `s1`): its step length, phase, and the state there when
+    /// already known. A `predicted` phase's event is the step's end already; others may
+    /// come first.
+    pub(super) fn event_after(
+        &mut self,
+        (x0, f0): (&State, &State),
+        (x1, s1): (&State, &Solution),
+        h: f64,
+        b0: (f64, f64, f64),
+        predicted: Option<Phase>,
+    ) -> Option<(f64, Phase, Option<State>)> {
+        let step = Dense {
+            x0,
+            f0,
+            x1,
+            di1: s1.di.to_array(),
+            h,
+        };
+        let muted = self.muted;
+        if let Some(p) = predicted {
+            self.muted[p.index()] = true;
+        }
+        let found = self.first_event(&step, s1, b0);
+        self.muted = muted;
+        found
+    }
+
+    /// Applies phase `p`'s event at the end of the step just committed (`instant`: a step
+    /// of zero length) and re-resolves the conduction state.
+    pub(super) fn apply_event(&mut self, p: Phase, instant: bool) -> PlantStop {
+        if self.modes.get(p).is_diode() {
+            // The diode current reached zero: exactly zero, sum kept at zero.
+            let k = p.index();
+            let residual = self.x[k];
+            self.x[k] = 0.0;
+            let others = Phase::ALL
+                .iter()
+                .filter(|&&q| q != p && self.modes.get(q).conducts())
+                .count();
+            if others == 1 {
+                // Two-phase conduction: the other current is minus this one, zero too.
+                for q in Phase::ALL
+                    .into_iter()
+                    .filter(|&q| q != p && self.modes.get(q).conducts())
+                {
+                    self.x[q.index()] = 0.0;
+                }
+            } else if let Some(q) = Phase::ALL
+                .into_iter()
+                .filter(|&q| q != p && self.modes.get(q).conducts())
+                .max_by(|a, b| self.x[a.index()].abs().total_cmp(&self.x[b.index()].abs()))
+            {
+                self.x[q.index()] += residual;
+            }
+        }
+        self.same_instant_events = if instant {
+            // Saturating: only its reaching 4 matters (a restored count may be any).
+            self.same_instant_events.saturating_add(1)
+        } else {
+            0
+        };
+        if self.same_instant_events >= 4 {
+            // Zero-length events repeating at one instant: this phase's event is ignored
+            // for the next step, while every other phase is still watched.
+            self.muted[p.index()] = true;
+        }
+        let was_open = self.modes.get(p) == Conduction::Open;
+        // A diode that had just been switched on at zero current and whose current would
+        // reverse at once never conducted: it stays open now instead of chattering.
+        let never_conducted = !was_open && instant;
+        self.refresh_start_at(was_open.then_some(p), never_conducted.then_some(p));
+        self.stats.diode_events += 1;
+        PlantStop::Diode
+    }
+
     /// Per-phase event functions: ≥ 0 while nothing happens, < 0 once a diode current has
     /// crossed zero or an open terminal has left the clamps.
     fn event_margin(&self, x: &State, s: &Solution, p: Phase) -> f64 {
@@ -180,7 +256,7 @@ impl BldcPlant {
     /// step length, phase, and the state there when already known. Besides event
     /// functions negative at the end, a freewheeling current that crosses zero and turns
     /// back inside the step is found from the step's cubic Hermite interpolant.
-    pub(super) fn first_event(
+    fn first_event(
         &mut self,
         d: &Dense,
         s1: &Solution,

@@ -6,7 +6,7 @@ use super::{BldcPlant, OMEGA, State, THETA};
 use crate::circuit::{self, Circuit, Solution};
 use crate::emf;
 use crate::sensing::Knot;
-use drive_core::{Abc, Phase};
+use drive_core::{Abc, Phase, Ticks};
 
 /// The longest step over which the comparators see a floating terminal's back-EMF along
 /// its chord \[s\]. Near a crossing the chord is off by at most E·ωe³·h³/8, a move of
@@ -16,9 +16,33 @@ use drive_core::{Abc, Phase};
 pub const CHORD_S: f64 = 40e-6;
 
 impl BldcPlant {
+    /// Hands the step from `x0` (derivative `f0`) at `t0` to `x1` (network `s1`, sin θ and
+    /// cos θ `sc1`) at `t1`, inside the step that starts at `base`, to the sensing chains:
+    /// the comparators, which first forget the toggles no query reaches (`unreported`: the
+    /// first watched change not yet reported), and the shunt channel.
+    pub(super) fn sense_step(
+        &mut self,
+        (x0, f0): (&State, &State),
+        (x1, s1, sc1): (&State, &Solution, (f64, f64)),
+        (t0, t1): (f64, f64),
+        base: (f64, f64, f64),
+        unreported: Option<Ticks>,
+        channels: Abc<bool>,
+    ) {
+        self.cmp.forget_history(Ticks::at_or_before(t0), unreported);
+        let (k0, k1) = self.knots((x0, f0, &self.start), (x1, s1, sc1), t1 - t0, base);
+        self.cmp.update(t0, t1, &k0, &k1, channels);
+        self.cur.update(
+            t0,
+            t1,
+            (self.start.i_shunt, self.shunt_slope([f0[0], f0[1], f0[2]])),
+            (s1.i_shunt, self.shunt_slope(s1.di.to_array())),
+        );
+    }
+
     /// d(i_shunt)/dt for the currents' rates `di`: the shunt carries the low-side currents
     /// back.
-    pub(super) fn shunt_slope(&self, di: [f64; 3]) -> f64 {
+    fn shunt_slope(&self, di: [f64; 3]) -> f64 {
         let low = circuit::low_legs_at(self.lin);
         Phase::ALL
             .into_iter()
@@ -46,7 +70,7 @@ impl BldcPlant {
     /// starts at `base` (see [`Knot`]). Steps up to [`CHORD_S`] keep every voltage on its
     /// chord; longer ones take the end's derivative, made here for them alone.
     #[inline(always)]
-    pub(super) fn knots(
+    fn knots(
         &self,
         (x0, f0, s0): (&State, &State, &Solution),
         (x1, s1, sc1): (&State, &Solution, (f64, f64)),

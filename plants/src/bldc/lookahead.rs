@@ -95,6 +95,33 @@ impl BldcPlant {
         stop
     }
 
+    /// Where the plant stops inside the step just integrated, ending at `t1`, from tick
+    /// `now`: at the clock edge that samples a watched change inside it (`after`: the first
+    /// not yet reported), or at `until` if the step runs past it. `None`: the step is
+    /// committed whole.
+    pub(super) fn stop_inside(
+        &mut self,
+        t1: f64,
+        until: Ticks,
+        watch: Watch,
+        (now, after): (Ticks, Option<Ticks>),
+    ) -> Option<PlantStop> {
+        let t_end = until.seconds();
+        let sample = after
+            .map(|tv| Self::sample_edge(tv, watch, now))
+            .filter(|e| e.seconds() < t1 - 1e-15);
+        if sample.is_some() || t_end < t1 - 1e-15 {
+            if let Some(e) = sample.filter(|e| e.seconds() <= t_end + 1e-15) {
+                self.serve_at(e);
+                self.reported = e;
+                return Some(PlantStop::Sensing(e));
+            }
+            self.serve_at(until);
+            return Some(PlantStop::Reached);
+        }
+        None
+    }
+
     /// Ends any lookahead at the present time, before the dynamics change. The check is
     /// inlined at every gate change; the work (one change in ten) is not.
     #[inline]

@@ -2,16 +2,15 @@
 //! committed state towards the horizon, each ended at its first diode event, handed to the
 //! sensing chains, and committed or kept as the lookahead.
 
-use super::events::Dense;
 use super::lookahead::Lookahead;
 use super::{BldcPlant, State, THETA, wrap_angle};
-use crate::circuit::{Conduction, Solution};
+use crate::circuit::Solution;
 use crate::emf;
 use drive_core::{Phase, PlantStop, Ticks, Watch};
 use std::f64::consts::TAU;
 
 /// The most steps sin θ and cos θ are carried from step to step by rotations before a
-/// fresh `sin_cos` re-anchors them (see `BldcPlant::step_to`; committed steps are
+/// fresh `sin_cos` re-anchors them (see `BldcPlant::start_angle`; committed steps are
 /// counted by `PlantStats::steps`, which a state saves, so a restored run re-anchors
 /// where the uninterrupted one does).
 ///
@@ -28,96 +27,8 @@ use std::f64::consts::TAU;
 pub(super) const ANCHOR: u64 = 128;
 
 impl BldcPlant {
-    /// The angle, sine and cosine a step starts from: every evaluation inside the step
-    /// reaches its own angle from them by angle addition (see [`emf::sin_cos_near`]).
-    pub(super) fn base(x: &State) -> (f64, f64, f64) {
-        let (s, c) = x[THETA].sin_cos();
-        (x[THETA], s, c)
-    }
-
-    fn commit(&mut self, x: State, t: f64) {
-        self.x = x;
-        self.t = t;
-        self.tick = Ticks::at_or_after(t);
-        if !(0.0..TAU).contains(&self.x[THETA]) {
-            self.x[THETA] = wrap_angle(self.x[THETA]);
-        }
-        self.stats.steps += 1;
-    }
-
-    /// Commits a step ending at `t1` with sin θ, cos θ `sc1` there (handling its diode
-    /// event, if any).
-    #[inline(always)]
-    pub(super) fn finish_step(
-        &mut self,
-        x1: State,
-        sc1: (f64, f64),
-        t0: f64,
-        t1: f64,
-        s1: Solution,
-        event: Option<Phase>,
-    ) -> Option<PlantStop> {
-        self.end_angle = Some((x1[THETA], sc1.0, sc1.1));
-        // The back-EMF at the committed state (a re-resolve after a gate change or an
-        // event, an observation) then takes this sine and cosine as they are, not by angle
-        // addition from the step's start again: the same values, since they were made so.
-        self.base_hint = (x1[THETA], sc1.0, sc1.1);
-        self.commit(x1, t1);
-        if let Some(p) = event {
-            if self.modes.get(p).is_diode() {
-                // The diode current reached zero: exactly zero, sum kept at zero.
-                let k = p.index();
-                let residual = self.x[k];
-                self.x[k] = 0.0;
-                let others = Phase::ALL
-                    .iter()
-                    .filter(|&&q| q != p && self.modes.get(q).conducts())
-                    .count();
-                if others == 1 {
-                    // Two-phase conduction: the other current is minus this one, zero too.
-                    for q in Phase::ALL
-                        .into_iter()
-                        .filter(|&q| q != p && self.modes.get(q).conducts())
-                    {
-                        self.x[q.index()] = 0.0;
-                    }
-                } else if let Some(q) = Phase::ALL
-                    .into_iter()
-                    .filter(|&q| q != p && self.modes.get(q).conducts())
-                    .max_by(|a, b| self.x[a.index()].abs().total_cmp(&self.x[b.index()].abs()))
-                {
-                    self.x[q.index()] += residual;
-                }
-            }
-            self.same_instant_events = if t1 - t0 < 1e-12 {
-                // Saturating: only its reaching 4 matters (a restored count may be any).
-                self.same_instant_events.saturating_add(1)
-            } else {
-                0
-            };
-            if self.same_instant_events >= 4 {
-                // Zero-length events repeating at one instant: this phase's event is ignored
-                // for the next step, while every other phase is still watched.
-                self.muted[p.index()] = true;
-            }
-            let was_open = self.modes.get(p) == Conduction::Open;
-            // A diode that had just been switched on at zero current and whose current would
-            // reverse at once never conducted: it stays open now instead of chattering.
-            let never_conducted = !was_open && t1 - t0 < 1e-12;
-            self.refresh_start_at(was_open.then_some(p), never_conducted.then_some(p));
-            self.stats.diode_events += 1;
-            return Some(PlantStop::Diode);
-        }
-        self.same_instant_events = 0;
-        if t1 - t0 >= 1e-12 {
-            self.muted = [false; 3];
-        }
-        self.start = s1;
-        self.fsal = true;
-        None
-    }
-
-    /// [`Plant::advance`] without the comparator bookkeeping around it.
+    /// [`Plant::advance`](drive_core::Plant::advance) without the comparator bookkeeping
+    /// around it.
     pub(super) fn step_to(&mut self, until: Ticks, watch: Watch) -> PlantStop {
         let t_end = until.seconds();
         // The first watched change not yet reported, as found at the end of the last step
@@ -141,53 +52,9 @@ impl BldcPlant {
                 }
                 return PlantStop::Reached;
             }
-            // Integrate up to the horizon, not just to `until`: instants before it are
-            // served from this step (see `Lookahead`) unless the dynamics change first.
-            // The horizon's instant is a tick's own time already (as `Ticks::at_or_after`
-            // finds it); a step of the longest length that lands on a tick takes that
-            // tick's own time, so it ends where a step cut there by the engine would (bit
-            // for bit).
-            let horizon = watch.horizon.max(until).seconds();
-            let mut t1 = if horizon > t0 + self.h_max {
-                match Ticks::at_or_after(t0 + self.h_max) {
-                    (k, true) => k.seconds(),
-                    _ => t0 + self.h_max,
-                }
-            } else {
-                horizon
-            };
-            if let Some(e) = pending {
-                t1 = t1.min(e.seconds());
-            }
+            let mut t1 = self.step_end(t0, watch.horizon.max(until), pending);
             let x0 = self.x;
-            // The last step's end angle, unless the state moved since (a wrap of θ, a
-            // settled lookahead, a set rotor) or the chain has run `ANCHOR` steps: a fresh
-            // sin_cos then re-anchors the chain of rotations, at least once a turn and once
-            // every `ANCHOR` steps however slowly the rotor turns.
-            let b0 = match self.end_angle {
-                Some(e) if e.0 == x0[THETA] && self.stats.steps % ANCHOR != 0 => e,
-                _ => Self::base(&x0),
-            };
-            self.base_hint = b0;
-            // The derivative here from the network's solution here (`start`): first same
-            // as last, the previous step's end derivative when nothing has changed the
-            // dynamics since (taken at that step's end angle, before θ's wrap); else the
-            // network was just solved here (a gate change, an event, a settled lookahead).
-            let angle = match (std::mem::take(&mut self.fsal), self.end_angle) {
-                (true, Some(e)) => e,
-                _ => {
-                    if std::mem::take(&mut self.verify_start) && !self.start_solves(&x0, b0) {
-                        self.start = self.solve_near(&x0, b0);
-                    }
-                    // A state gone non-finite has no solution to compare (NaN ≠ NaN); the
-                    // run goes on and its summary reports it.
-                    debug_assert!(
-                        self.start_solves(&x0, b0),
-                        "the network solution at the step's start is stale"
-                    );
-                    (x0[THETA], b0.1, b0.2)
-                }
-            };
+            let (b0, angle) = self.start_angles(&x0);
             let f0 = self.end_derivative(&x0, &self.start, angle);
             // A diode event predicted inside the step: the step ends there when its
             // current is within 1e-9 A of zero (as the search after a step accepts). The
@@ -212,20 +79,7 @@ impl BldcPlant {
             }
             let (mut s1, mut sc1) = self.solution_at(&x1, emf::sin_cos_close(x1[THETA], end, b0));
             let mut event = predicted.map(|(_, p)| p);
-            let step = Dense {
-                x0: &x0,
-                f0: &f0,
-                x1: &x1,
-                di1: s1.di.to_array(),
-                h: t1 - t0,
-            };
-            // The predicted phase's event is the step's end; others may come first.
-            let muted = self.muted;
-            if let Some((_, p)) = predicted {
-                self.muted[p.index()] = true;
-            }
-            let found = self.first_event(&step, &s1, b0);
-            self.muted = muted;
+            let found = self.event_after((&x0, &f0), (&x1, &s1), t1 - t0, b0, event);
             if let Some((h_ev, p, at)) = found {
                 // The step to the event is integrated (not interpolated), so the energy
                 // integrals stay consistent with the currents.
@@ -234,22 +88,11 @@ impl BldcPlant {
                 t1 = t0 + h_ev;
                 event = Some(p);
             }
-            self.cmp.forget_history(Ticks::at_or_before(t0), unreported);
-            let (k0, k1) = self.knots((&x0, &f0, &self.start), (&x1, &s1, sc1), t1 - t0, b0);
-            self.cmp.update(t0, t1, &k0, &k1, watch.channels);
-            self.cur.update(
-                t0,
-                t1,
-                (self.start.i_shunt, self.shunt_slope([f0[0], f0[1], f0[2]])),
-                (s1.i_shunt, self.shunt_slope(s1.di.to_array())),
-            );
+            let (start, end) = ((&x0, &f0), (&x1, &s1, sc1));
+            self.sense_step(start, end, (t0, t1), b0, unreported, watch.channels);
             let after = self.unreported(watch);
-            let sample = after
-                .map(|tv| Self::sample_edge(tv, watch, now))
-                .filter(|e| e.seconds() < t1 - 1e-15);
-            if sample.is_some() || t_end < t1 - 1e-15 {
-                // A watched output changed inside the step, or the step runs past `until`:
-                // stop there, keeping the rest of the step for later.
+            if let Some(stop) = self.stop_inside(t1, until, watch, (now, after)) {
+                // The rest of the step is kept for later.
                 self.lookahead = Some(Lookahead {
                     x0,
                     f0,
@@ -261,19 +104,124 @@ impl BldcPlant {
                     sc1,
                     event,
                 });
-                if let Some(e) = sample.filter(|e| e.seconds() <= t_end + 1e-15) {
-                    self.serve_at(e);
-                    self.reported = e;
-                    return PlantStop::Sensing(e);
-                }
-                self.serve_at(until);
-                return PlantStop::Reached;
+                return stop;
             }
             if let Some(stop) = self.finish_step(x1, sc1, t0, t1, s1, event) {
                 return stop;
             }
             known = Some(after);
         }
+    }
+
+    /// Where the step from `t0` ends: a longest step on, or at the instant `to` (a tick)
+    /// if that comes first, or at `pending`, the clock edge that samples a watched change
+    /// already found.
+    fn step_end(&self, t0: f64, to: Ticks, pending: Option<Ticks>) -> f64 {
+        // Integrate up to the horizon, not just to `until`: instants before it are
+        // served from this step (see `Lookahead`) unless the dynamics change first.
+        // The horizon's instant is a tick's own time already (as `Ticks::at_or_after`
+        // finds it); a step of the longest length that lands on a tick takes that
+        // tick's own time, so it ends where a step cut there by the engine would (bit
+        // for bit).
+        let horizon = to.seconds();
+        let mut t1 = if horizon > t0 + self.h_max {
+            match Ticks::at_or_after(t0 + self.h_max) {
+                (k, true) => k.seconds(),
+                _ => t0 + self.h_max,
+            }
+        } else {
+            horizon
+        };
+        if let Some(e) = pending {
+            t1 = t1.min(e.seconds());
+        }
+        t1
+    }
+
+    /// The angle base of the step from the committed state `x0` (see
+    /// [`BldcPlant::start_angle`]), and the angle with its sine and cosine at which the
+    /// derivative there is taken from the network's solution there, `start`.
+    fn start_angles(&mut self, x0: &State) -> ((f64, f64, f64), (f64, f64, f64)) {
+        let b0 = self.start_angle(x0);
+        self.base_hint = b0;
+        // First same as last: the previous step's end derivative when nothing has changed
+        // the dynamics since (taken at that step's end angle, before θ's wrap); else the
+        // network was just solved here (a gate change, an event, a settled lookahead).
+        let angle = match (std::mem::take(&mut self.fsal), self.end_angle) {
+            (true, Some(e)) => e,
+            _ => {
+                if std::mem::take(&mut self.verify_start) && !self.start_solves(x0, b0) {
+                    self.start = self.solve_near(x0, b0);
+                }
+                // A state gone non-finite has no solution to compare (NaN ≠ NaN); the
+                // run goes on and its summary reports it.
+                debug_assert!(
+                    self.start_solves(x0, b0),
+                    "the network solution at the step's start is stale"
+                );
+                (x0[THETA], b0.1, b0.2)
+            }
+        };
+        (b0, angle)
+    }
+
+    /// The angle, sine and cosine the step from the committed state `x0` starts from: the
+    /// last step's end angle, unless the state moved since (a wrap of θ, a settled
+    /// lookahead, a set rotor) or the chain has run `ANCHOR` steps: a fresh sin_cos then
+    /// re-anchors the chain of rotations, at least once a turn and once every `ANCHOR`
+    /// steps however slowly the rotor turns.
+    pub(super) fn start_angle(&self, x0: &State) -> (f64, f64, f64) {
+        match self.end_angle {
+            Some(e) if e.0 == x0[THETA] && self.stats.steps % ANCHOR != 0 => e,
+            _ => Self::base(x0),
+        }
+    }
+
+    /// The angle, sine and cosine a step starts from: every evaluation inside the step
+    /// reaches its own angle from them by angle addition (see [`emf::sin_cos_near`]).
+    pub(super) fn base(x: &State) -> (f64, f64, f64) {
+        let (s, c) = x[THETA].sin_cos();
+        (x[THETA], s, c)
+    }
+
+    /// Commits a step ending at `t1` with sin θ, cos θ `sc1` there (handling its diode
+    /// event, if any).
+    #[inline(always)]
+    pub(super) fn finish_step(
+        &mut self,
+        x1: State,
+        sc1: (f64, f64),
+        t0: f64,
+        t1: f64,
+        s1: Solution,
+        event: Option<Phase>,
+    ) -> Option<PlantStop> {
+        self.end_angle = Some((x1[THETA], sc1.0, sc1.1));
+        // The back-EMF at the committed state (a re-resolve after a gate change or an
+        // event, an observation) then takes this sine and cosine as they are, not by angle
+        // addition from the step's start again: the same values, since they were made so.
+        self.base_hint = (x1[THETA], sc1.0, sc1.1);
+        self.commit(x1, t1);
+        if let Some(p) = event {
+            return Some(self.apply_event(p, t1 - t0 < 1e-12));
+        }
+        self.same_instant_events = 0;
+        if t1 - t0 >= 1e-12 {
+            self.muted = [false; 3];
+        }
+        self.start = s1;
+        self.fsal = true;
+        None
+    }
+
+    fn commit(&mut self, x: State, t: f64) {
+        self.x = x;
+        self.t = t;
+        self.tick = Ticks::at_or_after(t);
+        if !(0.0..TAU).contains(&self.x[THETA]) {
+            self.x[THETA] = wrap_angle(self.x[THETA]);
+        }
+        self.stats.steps += 1;
     }
 }
 
