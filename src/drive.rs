@@ -57,7 +57,9 @@ fn assemble<E: From<ParamError>>(
 ) -> Result<DriveEngine, E> {
     config.validate()?;
     let plant = BldcPlant::new(config.plant_params())?;
-    let carrier = Carrier::default();
+    let carrier = Carrier {
+        top: config.control.carrier_top,
+    };
     let strategy = strategy(DriveInfo {
         pole_pairs: config.motor.poles / 2,
         amps_per_code: plant.current_sense().amps_per_code(),

@@ -8,9 +8,11 @@ pub mod pool;
 pub mod range;
 pub mod report;
 pub mod results;
+pub mod sensitivity;
 pub mod spectrum;
 pub mod startup;
 pub mod svg;
+pub mod tornado;
 pub mod vibration;
 
 use crate::config::DriveConfig;
@@ -119,6 +121,8 @@ pub struct Plan {
     pub meter: range::Meter,
     /// The meters each strategy's range is searched with.
     pub range_meters: Vec<range::Meter>,
+    /// The variants of the sensitivity study ([`sensitivity`]; empty: none).
+    pub sensitivity: Vec<String>,
 }
 
 impl Default for Plan {
@@ -137,6 +141,10 @@ impl Default for Plan {
             startup: (10, 1),
             meter: range::Meter::WIDE,
             range_meters: vec![range::Meter::WIDE, range::Meter::AS_PUBLISHED],
+            sensitivity: sensitivity::STRATEGIES
+                .iter()
+                .map(|n| n.to_string())
+                .collect(),
         }
     }
 }
@@ -415,6 +423,8 @@ pub struct Comparison {
     pub spectra: Vec<SpectrumRun>,
     /// Ramps down through the floors.
     pub drifts: Vec<drift::DriftRun>,
+    /// The sensitivity study.
+    pub sensitivity: Vec<sensitivity::Point>,
     /// Crossing traces (not in the JSON; plotted).
     #[serde(skip)]
     pub crossings: Vec<CrossingTrace>,
@@ -440,6 +450,7 @@ enum Job {
     Startup(usize),
     Spectrum(usize, f64, bool),
     Drift(usize, bool),
+    Sensitivity(usize),
 }
 
 enum Done {
@@ -450,6 +461,7 @@ enum Done {
     Startup(StartupResult),
     Spectrum(SpectrumRun),
     Drift(drift::DriftRun),
+    Sensitivity(sensitivity::Point),
 }
 
 /// Runs `plan` for every variant on `base` (the motor, power stage, sensing and control
@@ -462,7 +474,14 @@ pub fn compare(
     progress: bool,
 ) -> Result<Comparison, RunError> {
     let wall = Instant::now();
-    let mut jobs = Vec::new();
+    // Built-in strategies only: a plugin's guard parameters are not known here.
+    let studied: Vec<_> = variants
+        .iter()
+        .filter(|v| v.plugin.is_none() && plan.sensitivity.contains(&v.label))
+        .map(|v| (v.label.clone(), v.strategy.clone()))
+        .collect();
+    let study = sensitivity::jobs(base, &studied)?;
+    let mut jobs: Vec<Job> = (0..study.len()).map(Job::Sensitivity).collect();
     for (v, variant) in variants.iter().enumerate() {
         if plan.ranges {
             for &m in &plan.range_meters {
@@ -595,6 +614,7 @@ pub fn compare(
                 };
                 Done::Drift(drift::run_drift(&c, table, &label(v), &change)?)
             }
+            Job::Sensitivity(k) => Done::Sensitivity(sensitivity::run_job(&study[k])?),
             Job::Range(v, m) => Done::Range(range::search(
                 &m.apply(&config_of(v)),
                 variants[v].plugin.as_ref(),
@@ -702,6 +722,7 @@ pub fn compare(
         startups: Vec::new(),
         spectra: Vec::new(),
         drifts: Vec::new(),
+        sensitivity: Vec::new(),
         crossings: Vec::new(),
         wall_s: 0.0,
         threads,
@@ -718,6 +739,7 @@ pub fn compare(
             Done::Startup(x) => cmp.startups.push(x),
             Done::Spectrum(x) => cmp.spectra.push(x),
             Done::Drift(x) => cmp.drifts.push(x),
+            Done::Sensitivity(x) => cmp.sensitivity.push(x),
         }
     }
     cmp.wall_s = wall.elapsed().as_secs_f64();

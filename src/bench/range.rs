@@ -198,6 +198,53 @@ pub fn limit(rpm: f64, s: &Summary) -> Limit {
     }
 }
 
+/// A floor found by bisection.
+#[derive(Clone, Debug, Serialize)]
+pub struct Floor {
+    /// Lowest speed held after being turned down \[rpm\] (the seed when nothing below it
+    /// held).
+    pub rpm: f64,
+    /// The failed run just below it.
+    pub limit: Option<Limit>,
+    /// Every speed tried and whether it held.
+    pub tried: Vec<(f64, bool)>,
+    /// Simulated time of the runs \[s\].
+    pub sim_s: f64,
+}
+
+/// The floor of a drive running at `seed_rpm`, by bisection between the seed (held) and
+/// 0 rpm (never held), each run turned down from the seed; it stops when the bracket is
+/// within `resolution` of the floor (relative) or [`FLOOR_RESOLUTION_RPM`].
+pub fn floor(
+    config: &DriveConfig,
+    plugin: Option<&PluginLibrary>,
+    seed_rpm: f64,
+    resolution: f64,
+) -> Result<Floor, RunError> {
+    let mut f = Floor {
+        rpm: seed_rpm,
+        limit: None,
+        tried: Vec::new(),
+        sim_s: 0.0,
+    };
+    // `good` holds after the turn-down, `bad` does not (0 rpm never does).
+    let (mut good, mut bad) = (seed_rpm, 0.0);
+    while good - bad > (resolution * good).max(FLOOR_RESOLUTION_RPM) {
+        let mid = 0.5 * (good + bad);
+        let (ok, sum) = held_after_turn_down(config, plugin, seed_rpm, mid)?;
+        f.tried.push((mid, ok));
+        f.sim_s += sum.sim_s;
+        if ok {
+            good = mid;
+        } else {
+            bad = mid;
+            f.limit = Some(limit(mid, &sum));
+        }
+    }
+    f.rpm = good.round();
+    Ok(f)
+}
+
 /// Searches the range of `config`'s strategy (or `plugin`'s), labelled `label`, with the
 /// meter `config` sets (named `meter` in the result).
 pub fn search(
@@ -234,20 +281,10 @@ pub fn search(
         return Ok(range);
     };
     range.max_limit = None;
-    // Floor: `good` holds after the turn-down, `bad` does not (0 rpm never does).
-    let (mut good, mut bad) = (seed, 0.0);
-    while good - bad > (RESOLUTION * good).max(FLOOR_RESOLUTION_RPM) {
-        let mid = 0.5 * (good + bad);
-        let (ok, sum) = held_after_turn_down(config, plugin, seed, mid)?;
-        tried.push((mid, ok));
-        if ok {
-            good = mid;
-        } else {
-            bad = mid;
-            range.min_limit = Some(limit(mid, &sum));
-        }
-    }
-    range.min_rpm = Some(good.round());
+    let floor = floor(config, plugin, seed, RESOLUTION)?;
+    tried.extend(floor.tried);
+    range.min_rpm = Some(floor.rpm);
+    range.min_limit = floor.limit;
     // Top: `good` holds after the turn-up, `bad` does not (or is the ceiling).
     let (mut good, mut bad) = (seed, SEARCH_MAX_RPM);
     let (ok, sum) = held_after_turn_down(config, plugin, seed, bad)?;

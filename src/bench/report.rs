@@ -199,6 +199,7 @@ pub fn write_folder(
     if !c.drifts.is_empty() {
         figures.push((super::drift::CHART.to_string(), super::drift::chart(c)));
     }
+    figures.extend(tornado_charts(c));
     let mut crossing_files = Vec::new();
     for t in &c.crossings {
         let name = format!("crossing_{}.svg", t.variant.replace('@', "_"));
@@ -215,6 +216,30 @@ pub fn write_folder(
     )?;
     put("report.md", md)?;
     Ok(files)
+}
+
+/// The labels of the variants the sensitivity study ran, in the comparison's order.
+fn studied(c: &Comparison) -> Vec<String> {
+    c.variants
+        .iter()
+        .map(|v| v.label.clone())
+        .filter(|l| c.sensitivity.iter().any(|p| &p.strategy == l))
+        .collect()
+}
+
+/// The sensitivity study's tornado charts: per studied strategy, the floor's and the
+/// ripple's.
+fn tornado_charts(c: &Comparison) -> Vec<(String, String)> {
+    use super::tornado::{Measure, chart, file_of};
+    studied(c)
+        .iter()
+        .flat_map(|l| {
+            Measure::ALL.map(|m| {
+                let color = c.color_of(l).unwrap_or(0);
+                (file_of(l, m), chart(&c.sensitivity, l, m, color))
+            })
+        })
+        .collect()
 }
 
 /// `results.csv`'s columns, in order: (name, unit, definition). The header and the
@@ -749,6 +774,11 @@ fn markdown(c: &Comparison, config: &DriveConfig, crossings: &[String]) -> Strin
     startup_section(c, &mut s);
     s.push_str(&super::drift::section(c, config));
     s.push_str(&super::vibration::section(c));
+    s.push_str(&super::tornado::section(
+        &c.sensitivity,
+        &studied(c),
+        config.sensing.seed,
+    ));
     let _ = writeln!(s, "\n## Plots\n");
     for f in [
         "speed_step.svg",

@@ -33,7 +33,7 @@ pub struct Panel {
     pub series: Vec<Series>,
 }
 
-const COLORS: [&str; 8] = [
+pub(crate) const COLORS: [&str; 8] = [
     "#1f77b4", "#d62728", "#2ca02c", "#ff7f0e", "#9467bd", "#8c564b", "#e377c2", "#17becf",
 ];
 const W: f64 = 1000.0;
@@ -65,7 +65,7 @@ fn wrap(text: &str, max: usize) -> Vec<String> {
 }
 
 /// Round tick spacing covering `span` with about five ticks.
-fn tick_step(span: f64) -> f64 {
+pub(crate) fn tick_step(span: f64) -> f64 {
     let raw = span / 5.0;
     let mag = 10f64.powf(raw.log10().floor());
     let n = raw / mag;
@@ -96,7 +96,7 @@ fn bounds(values: impl Iterator<Item = f64>) -> (f64, f64) {
     (lo - pad, hi + pad)
 }
 
-fn escape(s: &str) -> String {
+pub(crate) fn escape(s: &str) -> String {
     s.replace('&', "&amp;")
         .replace('<', "&lt;")
         .replace('>', "&gt;")
@@ -269,7 +269,7 @@ pub fn chart_marked(title: &str, x_label: &str, panels: &[Panel], marks: &[Vec<M
     s
 }
 
-fn fmt_tick(v: f64, step: f64) -> String {
+pub(crate) fn fmt_tick(v: f64, step: f64) -> String {
     let decimals = (-step.log10().floor()).max(0.0) as usize;
     let v = if v.abs() < step * 1e-6 { 0.0 } else { v }; // no "-0"
     format!("{v:.decimals$}")

@@ -1,7 +1,7 @@
 //! drive-bench: compares commutation strategies on the built-in motor (see the README).
 
 use bldc_drive::DriveConfig;
-use bldc_drive::bench::{self, Plan, calibrate, pool, range, report};
+use bldc_drive::bench::{self, Plan, calibrate, pool, range, report, sensitivity, tornado};
 use bldc_drive::case::{Case, apply, choose};
 use bldc_drive::plots;
 use bldc_drive::scenario::{self, TraceRow, TraceSpec};
@@ -117,6 +117,22 @@ enum Cmd {
         /// Writes the gains and margins as JSON.
         #[arg(long)]
         json: Option<PathBuf>,
+    },
+    /// The sensitivity study alone: for six-step-120, twelve-step-lm and twelve-step-df,
+    /// each factor (PWM frequency, comparator filter mismatch and hysteresis, DF samples, LM
+    /// ωm, meter periods and width, loop gains, friction) at a low and a high level, the
+    /// floor (24-bit meter) and the low-band ripple at 1000 rpm; writes report.md,
+    /// report.html, sensitivity.json and a tornado chart per strategy and measure.
+    Sensitivity {
+        /// TOML config: the baseline.
+        #[arg(long)]
+        config: Option<PathBuf>,
+        /// Report folder to write (made if missing).
+        #[arg(long, default_value = "drive-bench-sensitivity")]
+        out: PathBuf,
+        /// Worker threads (default: every core).
+        #[arg(long, value_parser = clap::value_parser!(u16).range(1..=256))]
+        threads: Option<u16>,
     },
     /// Lists the strategies.
     List,
@@ -274,6 +290,11 @@ fn run(cli: Cli) -> Result<i32, String> {
             json,
             threads,
         }) => run_sweep(&file, csv, json, threads, &plugins).map(|()| 0),
+        Some(Cmd::Sensitivity {
+            config,
+            out,
+            threads,
+        }) => sensitivity(config.as_deref(), &out, threads).map(|()| 0),
         Some(Cmd::List) => {
             for n in StrategyName::ALL {
                 println!("{n}");
@@ -356,6 +377,7 @@ fn compare(a: CompareArgs, plugins: Vec<PluginLibrary>) -> Result<(), String> {
         plan.startup.0 = 0;
         plan.spectrum_rpm = vec![plan.trace_rpm];
         plan.drift = false;
+        plan.sensitivity.clear();
     }
     let threads = a.threads.map_or_else(pool::default_threads, usize::from);
     // The report folder is made before minutes of work, not after.
@@ -381,6 +403,35 @@ fn compare(a: CompareArgs, plugins: Vec<PluginLibrary>) -> Result<(), String> {
         .map_err(|e| format!("writing the report to {}: {e}", out.display()))?;
     println!(
         "report: {} ({} files)",
+        out.join("report.md").display(),
+        files.len()
+    );
+    Ok(())
+}
+
+fn sensitivity(config: Option<&Path>, out: &Path, threads: Option<u16>) -> Result<(), String> {
+    let cfg = load_config(config)?;
+    let threads = threads.map_or_else(pool::default_threads, usize::from);
+    let studied = sensitivity::strategies(&cfg.strategy, &sensitivity::STRATEGIES);
+    // Every level's config checked before anything is made or run.
+    sensitivity::jobs(&cfg, &studied).map_err(|e| e.to_string())?;
+    if out.is_file() {
+        return Err(format!(
+            "--out {}: is a file (rule: a folder)",
+            out.display()
+        ));
+    }
+    std::fs::create_dir_all(out).map_err(|e| format!("--out {}: {e}", out.display()))?;
+    check_outputs(&[out.join("report.md").as_path()])?;
+    let wall = std::time::Instant::now();
+    let points = sensitivity::study(&cfg, &studied, threads, std::io::stderr().is_terminal())?;
+    let labels: Vec<String> = studied.into_iter().map(|s| s.0).collect();
+    let files = tornado::write_folder(&points, &labels, &cfg, out)
+        .map_err(|e| format!("writing the report to {}: {e}", out.display()))?;
+    println!(
+        "sensitivity: {} jobs in {:.1} s on {threads} threads; report: {} ({} files)",
+        points.len(),
+        wall.elapsed().as_secs_f64(),
         out.join("report.md").display(),
         files.len()
     );

@@ -218,6 +218,13 @@ pub struct ControlParams {
     /// keeps toggling so step miss never fires, and the supervisor (or nothing, without
     /// it) restarts a rotor it was told to stop. Default true.
     pub stop_at_zero: bool,
+    /// Peak count of the PWM carrier, which counts up and down at the 50 MHz master
+    /// clock: the PWM frequency is 25 MHz / this \[counts\]. Default 2000 (12.5 kHz, the
+    /// chip's). The voltage command and the current PI's gains are in these counts, so at
+    /// another top the same gains give another duty per ampere (scale `current_kp` and
+    /// `current_ki` by top/2000 to keep it). Rule: 500..=4095 (a 12-bit counter, 6.1 kHz;
+    /// at 50 kHz the 2 µs spike each PWM edge leaves fills a fifth of the period).
+    pub carrier_top: u32,
 }
 
 impl Default for ControlParams {
@@ -259,6 +266,7 @@ impl Default for ControlParams {
             gain_schedule: true,
             schedule_min_duty: 0.03,
             stop_at_zero: true,
+            carrier_top: 2000,
         }
     }
 }
@@ -492,6 +500,13 @@ impl ControlParams {
             8.0,
             32.0,
             "must be in 8..=32 bits",
+        )?;
+        check_range(
+            "control.carrier_top",
+            f64::from(self.carrier_top),
+            500.0,
+            4095.0,
+            "must be in 500..=4095 counts (6.1 to 50 kHz PWM)",
         )?;
         Ok(())
     }
