@@ -9,6 +9,7 @@ pub mod range;
 pub mod report;
 pub mod results;
 pub mod sensitivity;
+pub mod sensitivity_report;
 pub mod spectrum;
 pub mod startup;
 pub mod svg;

@@ -58,6 +58,10 @@ pub const METRIC_DEFINITIONS: &[(&str, &str)] = &[
         "load dip / recovery",
         "for the load step: largest drop of the true speed below the command, and the time after the step from which it stays within ±2 % of the command",
     ),
+    (
+        "sensitivity: floor / ripple per level",
+        "for each factor of the sensitivity study at its low and its high level (every other setting at the baseline, the 24-bit meter): the floor as above but to 6 %, seeded at 3000 rpm once that holds from standstill (none when it does not), and the LF ripple in % of the mean torque at 1000 rpm turned down from 3000 rpm; a tornado's segment runs from the low level's value to the high level's",
+    ),
 ];
 
 fn opt(v: Option<f64>, scale: f64, decimals: usize) -> String {
@@ -774,7 +778,7 @@ fn markdown(c: &Comparison, config: &DriveConfig, crossings: &[String]) -> Strin
     startup_section(c, &mut s);
     s.push_str(&super::drift::section(c, config));
     s.push_str(&super::vibration::section(c));
-    s.push_str(&super::tornado::section(
+    s.push_str(&super::sensitivity_report::section(
         &c.sensitivity,
         &studied(c),
         config.sensing.seed,

@@ -37,7 +37,16 @@ impl Measure {
         }
     }
 
-    fn file_part(self) -> &'static str {
+    /// A value as tables show it.
+    pub fn format(self, x: f64) -> String {
+        match self {
+            Measure::Floor => format!("{x:.0}"),
+            Measure::Ripple => format!("{x:.1}"),
+        }
+    }
+
+    /// Its short name ("floor", "ripple"), as file names and sentences use it.
+    pub fn file_part(self) -> &'static str {
         match self {
             Measure::Floor => "floor",
             Measure::Ripple => "ripple",
@@ -125,6 +134,7 @@ const LEFT: f64 = 250.0;
 const RIGHT: f64 = 230.0;
 const TOP: f64 = 60.0;
 const ROW: f64 = 34.0;
+const LABEL_PX: f64 = 80.0;
 
 /// The tornado of `strategy` for `m`, in `color` (a palette index).
 pub fn chart(points: &[Point], strategy: &str, m: Measure, color: usize) -> String {
@@ -140,9 +150,10 @@ pub fn chart(points: &[Point], strategy: &str, m: Measure, color: usize) -> Stri
     if !x0.is_finite() {
         (x0, x1) = (0.0, 1.0);
     }
-    let pad = 0.08 * (x1 - x0).max(1e-9 * x1.abs().max(1.0));
-    let (x0, x1) = (x0 - pad, x1 + pad);
+    // Room for an end's level label (≈ 80 px) on either side of the values.
     let pw = W - LEFT - RIGHT;
+    let pad = (x1 - x0).max(1e-9 * x1.abs().max(1.0)) * LABEL_PX / (pw - 2.0 * LABEL_PX);
+    let (x0, x1) = (x0 - pad, x1 + pad);
     let px = |x: f64| LEFT + (x - x0) / (x1 - x0) * pw;
     let h = TOP + ROW * rows.len().max(1) as f64 + 50.0;
     let bottom = TOP + ROW * rows.len().max(1) as f64;
@@ -184,7 +195,7 @@ pub fn chart(points: &[Point], strategy: &str, m: Measure, color: usize) -> Stri
             px(b),
             TOP - 2.0,
             TOP - 6.0,
-            fmt_tick(b, dx / 10.0)
+            m.format(b)
         );
     }
     let _ = writeln!(
@@ -258,171 +269,11 @@ fn row(s: &mut String, r: &Bar, y: f64, px: &impl Fn(f64) -> f64, col: &str) {
     }
 }
 
-fn cell(m: Measure, p: Option<&Point>) -> String {
-    match p.map(|p| m.of(p)) {
-        Some(Ok(x)) if m == Measure::Floor => format!("{x:.0}"),
-        Some(Ok(x)) => format!("{x:.1}"),
-        Some(Err(why)) => format!("*{why}*"),
-        None => "–".into(),
-    }
-}
-
-/// The section, in Markdown, for `strategies` (labels, in order) and `seed` (the noise
-/// seed of every run).
-pub fn section(points: &[Point], strategies: &[String], seed: u64) -> String {
-    use super::sensitivity::{RESOLUTION, RIPPLE_RPM, SEED_RPM};
-    if points.is_empty() {
-        return String::new();
-    }
-    let (runs, sim_s, thread_s) = points.iter().fold((0, 0.0, 0.0), |a, p| {
-        (a.0 + p.runs, a.1 + p.sim_s, a.2 + p.wall_s)
-    });
-    let mut s = format!(
-        "\n## What moves the floor and the vibration\n\nWhat a chip designer controls and what the hardware varies, one factor at a time at a low and a high level, every other setting at the baseline (the config with the 24-bit meter, which does not bind), for {}. Per level: the **floor**, the range's bisection turned down from {SEED_RPM:.0} rpm after {SEED_RPM:.0} rpm held from standstill, to {:.0} % (or {:.0} rpm), judged by the verdict; and the **low-band ripple** at {RIPPLE_RPM:.0} rpm (% of the mean torque), turned down from {SEED_RPM:.0} rpm as the vibration section's runs are. {runs} runs, {sim_s:.0} s simulated ({thread_s:.0} s of wall time summed over the jobs' threads).\n\nWhat limits each figure: a floor is the lowest speed that held with one {:.0} % lower failing, so two floors closer than about {:.0} % are not told apart; every run starts at the {SEED_RPM:.0} rpm seed, so a level that cannot hold it from standstill has no floor here (shown as failed); every run uses the one noise seed {seed} (the comparator's noise is one realisation: a drive at the edge of synchronism can move by a bisection step with another); a ripple figure is one run's window of at least 1 s, and a share of the mean torque, which without a load is the friction's: the friction's row moves the ratio's denominator as much as the ripple.\n\n| factor | low | high | basis |\n|---|---|---|---|\n",
-        strategies.join(", "),
-        RESOLUTION * 100.0,
-        super::range::FLOOR_RESOLUTION_RPM,
-        RESOLUTION * 100.0,
-        2.0 * RESOLUTION * 100.0,
-    );
-    for f in Factor::ALL {
-        let label = |side| {
-            points
-                .iter()
-                .find(|p| p.level == Some((f, side)))
-                .map_or("–".to_string(), |p| p.label.clone())
-        };
-        let _ = writeln!(
-            s,
-            "| {} | {} | {} | {} |",
-            f.name(),
-            label(Side::Low),
-            label(Side::High),
-            f.basis()
-        );
-    }
-    for st in strategies {
-        strategy_part(&mut s, points, st);
-    }
-    s
-}
-
-fn strategy_part(s: &mut String, points: &[Point], st: &str) {
-    let at = |level| points.iter().find(|p| p.strategy == st && p.level == level);
-    let base = at(None);
-    let _ = writeln!(
-        s,
-        "\n### {st}\n\n![{0}]({0})\n\n![{1}]({1})\n\n| factor | low level | floor rpm | ripple % | high level | floor rpm | ripple % |\n|---|---|---:|---:|---|---:|---:|\n| baseline | – | {2} | {3} | – | – | – |",
-        file_of(st, Measure::Floor),
-        file_of(st, Measure::Ripple),
-        cell(Measure::Floor, base),
-        cell(Measure::Ripple, base),
-    );
-    for f in Factor::ALL {
-        let (lo, hi) = (at(Some((f, Side::Low))), at(Some((f, Side::High))));
-        let (Some(lo), Some(hi)) = (lo, hi) else {
-            continue;
-        };
-        let _ = writeln!(
-            s,
-            "| {} | {} | {} | {} | {} | {} | {} |",
-            f.name(),
-            lo.label,
-            cell(Measure::Floor, Some(lo)),
-            cell(Measure::Ripple, Some(lo)),
-            hi.label,
-            cell(Measure::Floor, Some(hi)),
-            cell(Measure::Ripple, Some(hi)),
-        );
-    }
-    let mut found = Vec::new();
-    for m in Measure::ALL {
-        let (_, rows) = bars(points, st, m);
-        let unit = if m == Measure::Floor { " rpm" } else { " %" };
-        let fmt = |v: &Result<f64, String>| match v {
-            Ok(x) if m == Measure::Floor => format!("{x:.0}{unit}"),
-            Ok(x) => format!("{x:.1}{unit}"),
-            Err(why) => why.clone(),
-        };
-        let named: Vec<String> = rows
-            .iter()
-            .take(3)
-            .map(|r| {
-                format!(
-                    "{} ({} → {}: {} → {})",
-                    r.factor.name(),
-                    r.low.0,
-                    r.high.0,
-                    fmt(&r.low.1),
-                    fmt(&r.high.1)
-                )
-            })
-            .collect();
-        found.push(format!(
-            "the {} moves most with {}",
-            m.file_part(),
-            named.join(", then ")
-        ));
-    }
-    let _ = writeln!(s, "\nFound: {}.", found.join("; "));
-}
-
-/// Writes the study alone into `dir`: `report.md`, `report.html`, `sensitivity.json` and
-/// the tornado charts; returns the files written.
-pub fn write_folder(
-    points: &[Point],
-    strategies: &[String],
-    config: &crate::config::DriveConfig,
-    dir: &std::path::Path,
-) -> std::io::Result<Vec<std::path::PathBuf>> {
-    let mut files = Vec::new();
-    let mut put = |name: &str, text: &str| -> std::io::Result<()> {
-        let p = dir.join(name);
-        std::fs::write(&p, text)?;
-        files.push(p);
-        Ok(())
-    };
-    let figures: Vec<(String, String)> = strategies
-        .iter()
-        .enumerate()
-        .flat_map(|(k, st)| {
-            // The comparison's colour: the strategy's place among the built-in ones.
-            let color = strategies::StrategyName::ALL
-                .iter()
-                .position(|n| n.as_str() == st)
-                .unwrap_or(k);
-            Measure::ALL.map(|m| (file_of(st, m), chart(points, st, m, color)))
-        })
-        .collect();
-    for (name, svg) in &figures {
-        put(name, svg)?;
-    }
-    let json = serde_json::json!({
-        "tool": format!("drive-bench {}", env!("CARGO_PKG_VERSION")),
-        "config": config,
-        "points": points,
-    });
-    put(
-        "sensitivity.json",
-        &serde_json::to_string_pretty(&json).map_err(std::io::Error::other)?,
-    )?;
-    let md = format!(
-        "# drive-bench sensitivity study\n{}",
-        section(points, strategies, config.sensing.seed)
-    );
-    put(
-        "report.html",
-        &super::html::page("drive-bench sensitivity study", &md, &figures),
-    )?;
-    put("report.md", &md)?;
-    Ok(files)
-}
-
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
 
-    fn point(
+    pub(crate) fn point(
         level: Option<(Factor, Side)>,
         label: &str,
         floor: Option<f64>,
@@ -446,7 +297,7 @@ mod tests {
         }
     }
 
-    fn study() -> Vec<Point> {
+    pub(crate) fn study() -> Vec<Point> {
         use Factor::*;
         use Side::*;
         vec![
@@ -496,8 +347,10 @@ mod tests {
     fn the_chart_places_segments_and_names_a_failed_level_without_a_number() {
         let svg = chart(&study(), "s", Measure::Ripple, 2);
         assert!(svg.starts_with("<svg") && svg.ends_with("</svg>\n"));
-        // x from 9 − 8 % to 30 + 8 % of the 21 % span: 0 % → 10 % is the segment from 15 to 30.
-        let (x0, x1) = (9.0 - 0.08 * 21.0, 30.0 + 0.08 * 21.0);
+        // x from 9 to 30 % with 80 px of room either side: 0 % → 10 % is the segment from
+        // 15 to 30.
+        let pad = 21.0 * LABEL_PX / (W - LEFT - RIGHT - 2.0 * LABEL_PX);
+        let (x0, x1) = (9.0 - pad, 30.0 + pad);
         let px = |x: f64| LEFT + (x - x0) / (x1 - x0) * (W - LEFT - RIGHT);
         let y = TOP + ROW * 1.5; // the second row
         assert!(
@@ -518,22 +371,6 @@ mod tests {
         assert_eq!(svg.matches(&format!(r#"cy="{first:.1}""#)).count(), 1);
         // The baseline is marked.
         assert!(svg.contains(&format!(r#"x1="{:.1}" x2="{:.1}""#, px(20.0), px(20.0))));
-        assert!(svg.contains("baseline 20"));
-    }
-
-    #[test]
-    fn the_table_shows_a_failed_run_as_its_verdict() {
-        let md = section(&study(), &["s".to_string()], 1);
-        assert!(
-            md.contains("| comparator filter mismatch | 0 % | 200 | 15.0 | 10 % | 800 | 30.0 |"),
-            "{md}"
-        );
-        assert!(
-            md.contains(
-                "| Coulomb friction | 0.1 mN·m | 510 | *fails (stalled)* | 0.5 mN·m | 520 | 9.0 |"
-            ),
-            "{md}"
-        );
-        assert!(md.contains("| baseline | – | 500 | 20.0 |"));
+        assert!(svg.contains("baseline 20.0"));
     }
 }

@@ -1,7 +1,9 @@
 //! drive-bench: compares commutation strategies on the built-in motor (see the README).
 
 use bldc_drive::DriveConfig;
-use bldc_drive::bench::{self, Plan, calibrate, pool, range, report, sensitivity, tornado};
+use bldc_drive::bench::{
+    self, Plan, calibrate, pool, range, report, sensitivity, sensitivity_report,
+};
 use bldc_drive::case::{Case, apply, choose};
 use bldc_drive::plots;
 use bldc_drive::scenario::{self, TraceRow, TraceSpec};
@@ -426,7 +428,7 @@ fn sensitivity(config: Option<&Path>, out: &Path, threads: Option<u16>) -> Resul
     let wall = std::time::Instant::now();
     let points = sensitivity::study(&cfg, &studied, threads, std::io::stderr().is_terminal())?;
     let labels: Vec<String> = studied.into_iter().map(|s| s.0).collect();
-    let files = tornado::write_folder(&points, &labels, &cfg, out)
+    let files = sensitivity_report::write_folder(&points, &labels, &cfg, out)
         .map_err(|e| format!("writing the report to {}: {e}", out.display()))?;
     println!(
         "sensitivity: {} jobs in {:.1} s on {threads} threads; report: {} ({} files)",
