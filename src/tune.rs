@@ -198,7 +198,7 @@ impl LoopModel {
             b: m.viscous_friction_nms,
             tc: m.coulomb_friction_nm,
             v: config.power_stage.supply_v,
-            top: f64::from(drive_core::Carrier::default().top),
+            top: f64::from(config.control.carrier_top),
             t: clocks::PI_UPDATE.seconds(),
             control: config.control.clone(),
         })
