@@ -105,3 +105,152 @@ impl Chip {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::super::tests::{chip, next, next_edge};
+    use super::super::*;
+    use crate::table::{OFF_FLAG, flag_of};
+
+    #[test]
+    fn start_is_debounced_for_31_master_clocks() {
+        let mut c = chip(5);
+        c.set_start(Ticks::ZERO, false);
+        let cmd = c.tick(Ticks::ZERO, &Sensed::default());
+        assert_eq!(cmd.wake_at, Ticks::NEVER);
+        c.set_start(Ticks(100), true);
+        let cmd = c.tick(Ticks(128), &Sensed::default());
+        assert_eq!(c.status().mode, Mode::Off, "held 28 clocks only");
+        assert_eq!(cmd.wake_at, Ticks(131));
+        c.tick(Ticks(160), &Sensed::default());
+        assert!(matches!(c.status().mode, Mode::Aligning { step: 0, .. }));
+    }
+
+    #[test]
+    fn alignment_runs_the_three_steps_for_their_durations_then_hands_over() {
+        // The published alignment: a fixed duty, no PI updates before the hand-over.
+        let control = ControlParams {
+            align_current_a: 0.0,
+            ..ControlParams::default()
+        };
+        let mut c = Chip::new(control, StrategyParams::default(), 6, 0.5 / 4095.0, 2000).unwrap();
+        let mut now = Ticks::ZERO;
+        let mut cmd = c.tick(now, &Sensed::default());
+        assert_eq!(cmd.pattern, ALL_FLOAT);
+        // Debounce ends at 31 → first 0.64 µs edge 32: step 0 (u→v, flag 0100).
+        cmd = next(&mut c, &mut now, &cmd);
+        assert_eq!(now, Ticks(32));
+        assert_eq!(flag_of(&cmd.pattern), Some(0b0100));
+        assert_eq!(cmd.duty, 400, "startup duty 0.2 of 2000");
+        // Durations on the 327.68 µs align clock: round(0.7 s) = 2136, round(38 ms) = 116,
+        // round(15 ms) = 46 periods, each step starting at the next align edge.
+        let a = clocks::ALIGN.0;
+        let ends = [
+            a * (1 + 2136),
+            a * (1 + 2136 + 116),
+            a * (1 + 2136 + 116 + 46),
+        ];
+        let flags = [0b0000, 0b0001];
+        for (k, &end) in ends.iter().enumerate() {
+            cmd = next(&mut c, &mut now, &cmd);
+            assert_eq!(now, Ticks(end), "end of step {k}");
+            if k < 2 {
+                assert_eq!(flag_of(&cmd.pattern), Some(flags[k]), "step {}", k + 1);
+            }
+        }
+        // Hand-over: closed loop in state 12 (w→v, u floating), the state for 330..360°,
+        // where the last alignment pattern v→u holds the rotor (its zero-torque point).
+        assert_eq!(c.status().mode, Mode::Running);
+        assert_eq!(c.status().state, 12);
+        assert_eq!(flag_of(&cmd.pattern), Some(0b0011));
+        assert!(cmd.watch.u && !cmd.watch.v && !cmd.watch.w);
+        let total_s = Ticks(ends[2]).seconds();
+        assert!(
+            (total_s - (0.7 + 0.038 + 0.015)).abs() < 0.5e-3,
+            "{total_s}"
+        );
+    }
+
+    #[test]
+    fn a_step_miss_forces_off_restarts_and_gives_up_after_the_limit() {
+        let mut c = chip(1);
+        let mut now = Ticks::ZERO;
+        let mut cmd = c.tick(now, &Sensed::default());
+        while c.status().mode != Mode::Running {
+            cmd = next(&mut c, &mut now, &cmd);
+        }
+        let handover = now;
+        // No crossing ever comes (w stays below neutral): FG_c never changes.
+        while c.status().restarts == 0 {
+            cmd = next(&mut c, &mut now, &cmd);
+        }
+        // 0.05 s on the 40.96 µs clock: round(1220.7) = 1221 periods after the first edge.
+        let deadline = handover.next_edge(clocks::STEP_MISS).0 + 1221 * clocks::STEP_MISS.0;
+        assert_eq!(now, Ticks(deadline));
+        assert!(matches!(c.status().mode, Mode::Aligning { step: 0, .. }));
+        assert_eq!(flag_of(&cmd.pattern), Some(0b0100), "restarted alignment");
+        while c.status().restarts == 1 {
+            cmd = next(&mut c, &mut now, &cmd);
+        }
+        assert_eq!(c.status().mode, Mode::GaveUp);
+        assert_eq!(c.status().restarts, 2);
+        assert_eq!(cmd.pattern, ALL_FLOAT);
+        assert_eq!(c.status().flag, OFF_FLAG);
+        assert_eq!(cmd.wake_at, Ticks::NEVER);
+        // Reset clears it; releasing reset starts again after the debounce.
+        c.set_reset(true);
+        c.tick(Ticks(now.0 + 32), &Sensed::default());
+        assert_eq!(c.status().mode, Mode::Off);
+        assert_eq!(c.status().restarts, 0);
+        c.set_reset(false);
+        c.set_start(Ticks(now.0 + 64), false);
+        c.set_start(Ticks(now.0 + 64), true);
+        c.tick(Ticks(now.0 + 128), &Sensed::default());
+        assert!(matches!(c.status().mode, Mode::Aligning { .. }));
+    }
+
+    /// Alignment by current on a locked 0.4 Ω winding: phase current (d·12.7 − 0.7)/1.2 A,
+    /// shunt current d times that. The first step regulates the inferred phase current to
+    /// `align_current_a` from zero duty; the duty reached is held for the other two steps.
+    #[test]
+    fn alignment_by_current_regulates_the_phase_current_then_holds_the_duty() {
+        let mut c = chip(5);
+        let amps_per_code = 0.5 / 4095.0;
+        let phase = |d: f64| ((d * 12.7 - 0.7) / 1.2).max(0.0);
+        let mut now = Ticks::ZERO;
+        let mut cmd = c.tick(now, &Sensed::default());
+        let mut duties = Vec::new();
+        while c.status().mode != Mode::Running {
+            let d = f64::from(cmd.duty) / 2000.0;
+            let code = (d * phase(d) / amps_per_code).round() as u16;
+            now = next_edge(now, &cmd);
+            cmd = c.tick(now, &Sensed::new(Abc::splat(false), code));
+            if let Mode::Aligning { step, .. } = c.status().mode {
+                duties.push((step, cmd.duty));
+            }
+        }
+        assert_eq!(duties[0], (0, 0), "starts at zero duty");
+        let held: Vec<u32> = duties.iter().filter(|x| x.0 > 0).map(|x| x.1).collect();
+        let end = held[0];
+        assert!(held.iter().all(|&d| d == end), "held through steps 1 and 2");
+        let i = phase(f64::from(end) / 2000.0);
+        assert!((i - 0.39).abs() < 0.02, "phase current {i} A at duty {end}");
+        // Far below the fixed 20 % duty, which would drive 1.5 A into this winding.
+        assert!(end < 200, "duty {end}");
+    }
+
+    #[test]
+    fn start_current_is_a_phase_current_times_the_duty() {
+        let mut c = chip(5);
+        c.cv = 200;
+        assert!((c.start_current() - 0.055).abs() < 1e-12);
+        c.cv = 2000;
+        assert_eq!(
+            c.start_current(),
+            c.control.current_limit_a,
+            "capped at the limit"
+        );
+        c.control.start_phase_current_a = 0.0;
+        assert_eq!(c.start_current(), c.control.start_current_a, "published");
+    }
+}
