@@ -11,7 +11,7 @@
 use bldc_drive::DriveConfig;
 use bldc_drive::bench::drift::{error_at, run_drift};
 use bldc_drive::bench::range::Meter;
-use bldc_drive::strategies::{StrategyName, Table};
+use bldc_drive::strategies::StrategyName;
 
 fn drift(matched: bool) -> bldc_drive::bench::drift::DriftRun {
     let mut c = Meter::WIDE.apply(&DriveConfig::default());
@@ -19,10 +19,7 @@ fn drift(matched: bool) -> bldc_drive::bench::drift::DriftRun {
     if matched {
         c.sensing.comparator.neutral_filter_tau_s = c.sensing.comparator.phase_filter_tau_s;
     }
-    let table = Table::TwelveStep {
-        conduction_deg: c.strategy.conduction_deg(),
-    };
-    run_drift(&c, table, "twelve-step-df", "").expect("the run")
+    run_drift(&c, c.strategy.table(), "twelve-step-df", "").expect("the run")
 }
 
 #[test]

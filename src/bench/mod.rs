@@ -576,7 +576,7 @@ pub fn compare(
                 // (a six-step plugin's commutation then reads "every 2 steps").
                 let steps = match variants[v].plugin {
                     Some(_) => 12,
-                    None => variants[v].strategy.name.steps_per_turn(),
+                    None => variants[v].strategy.table().states_per_turn(),
                 };
                 let spectrum = out
                     .summary
@@ -606,13 +606,7 @@ pub fn compare(
                 } else {
                     String::new()
                 };
-                let s = &variants[v].strategy;
-                let table = match s.name {
-                    StrategyName::SixStep120 => strategies::Table::SixStep,
-                    _ => strategies::Table::TwelveStep {
-                        conduction_deg: s.conduction_deg(),
-                    },
-                };
+                let table = variants[v].strategy.table();
                 Done::Drift(drift::run_drift(&c, table, &label(v), &change)?)
             }
             Job::Sensitivity(k) => Done::Sensitivity(sensitivity::run_job(&study[k])?),

@@ -26,7 +26,7 @@ fn steps_of(c: &Comparison, variant: &str) -> u32 {
         .find(|v| v.label == variant)
         .map_or(12, |v| match v.plugin {
             Some(_) => 12,
-            None => v.strategy.name.steps_per_turn(),
+            None => v.strategy.table().states_per_turn(),
         })
 }
 

@@ -558,15 +558,6 @@ impl StrategyName {
             StrategyName::TwelveStepDf => Some(GuardKind::Df),
         }
     }
-
-    /// Commutation steps per electrical turn: 6 for six-step, 12 for twelve-step.
-    pub fn steps_per_turn(self) -> u32 {
-        if self == StrategyName::SixStep120 {
-            6
-        } else {
-            12
-        }
-    }
 }
 
 impl fmt::Display for StrategyName {
@@ -761,6 +752,16 @@ impl StrategyParams {
         match self.name {
             StrategyName::SixStep120 => 120.0,
             _ => self.conduction_angle_deg.unwrap_or(150.0),
+        }
+    }
+
+    /// The commutation table these settings configure (the chip may start narrower).
+    pub fn table(&self) -> crate::Table {
+        match self.name {
+            StrategyName::SixStep120 => crate::Table::SixStep,
+            _ => crate::Table::TwelveStep {
+                conduction_deg: self.conduction_deg(),
+            },
         }
     }
 }

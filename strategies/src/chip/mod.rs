@@ -189,12 +189,7 @@ impl Chip {
                 "must be finite and > 0",
             ));
         }
-        let table = match strategy.name {
-            StrategyName::SixStep120 => Table::SixStep,
-            _ => Table::TwelveStep {
-                conduction_deg: strategy.conduction_deg(),
-            },
-        };
+        let table = strategy.table();
         let top = carrier_top.max(1);
         // The speed PI's integrator is clamped at the current limit (no headroom), which
         // caps its windup there; back-calculation on it is a model option, not the chip's.
