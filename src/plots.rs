@@ -1,26 +1,32 @@
 //! Plots of one scenario, as a drive engineer reads them (`drive-bench run --plot DIR`).
 //!
-//! - `overview.svg`, the whole run: true and estimated speed with the command overlaid, the
-//!   duty, the torque and a phase current, sampled every 1/4000 of the run (at least
-//!   every 10 µs). Samples of PWM-rate signals at that spacing show their envelope, not
-//!   their shape: the zoom is for that.
-//! - `zoom.svg`, the last three electrical turns at the final command (1–20 ms) sampled
-//!   every microsecond: phase currents, terminal and neutral voltages, the commutation
-//!   state as labelled steps, and the zero-crossing signal raw and after the guard.
+//! - `overview.svg`, the whole run, with the experiment's inputs beside the response: the
+//!   speed command with the true speed and the chip's estimate; the current command (the
+//!   speed PI's output) with the shunt current; the duty; the torque with the load's;
+//!   the supply. Each point is the mean over 1/4000 of the run of a trace taken every
+//!   10 µs (at most), so PWM-rate signals show their average, as the loops see them.
+//! - `zoom.svg`, three electrical turns sampled every microsecond: phase currents,
+//!   terminal and neutral voltages, the commutation state as labelled steps, and the
+//!   zero-crossing signal raw and after the guard. For a drive that lost its rotor, the
+//!   turns around the first commutation out of synchronism (marked on both figures);
+//!   otherwise the last turns of the run.
 //!
-//! Each figure comes from its own run of the scenario with a trace over its window; runs
-//! are deterministic, so both show the same drive as the summary.
+//! Titles carry the scenario's description. Each figure comes from its own run of the
+//! scenario with a trace over its window; runs are deterministic, so both show the same
+//! drive as the summary.
 
-use crate::bench::svg::{Panel, Series, chart};
-use crate::scenario::{RunError, Scenario, TraceRow, TraceSpec, run};
+use crate::bench::svg::{Mark, Panel, Series, chart_marked};
+use crate::scenario::{RunError, Scenario, Summary, TraceRow, TraceSpec, run};
 
-/// Samples in the overview.
+/// Points in the overview.
 const OVERVIEW_POINTS: f64 = 4000.0;
+/// The overview's trace period, averaged into each point \[s\].
+const OVERVIEW_EVERY_S: f64 = 10e-6;
 /// The zoom's sampling period \[s\].
 const ZOOM_EVERY_S: f64 = 1e-6;
 
-/// The figures of `sc`: (file name, SVG).
-pub fn scenario_plots(sc: &Scenario) -> Result<Vec<(String, String)>, RunError> {
+/// The figures of `sc`, whose run gave `summary`: (file name, SVG).
+pub fn scenario_plots(sc: &Scenario, summary: &Summary) -> Result<Vec<(String, String)>, RunError> {
     let title = format!(
         "{} — {}",
         match &sc.plugin {
@@ -29,22 +35,40 @@ pub fn scenario_plots(sc: &Scenario) -> Result<Vec<(String, String)>, RunError> 
         },
         describe(sc)
     );
-    let every = (sc.duration_s / OVERVIEW_POINTS).max(10e-6);
-    let rows = traced(sc, 0.0, sc.duration_s, every)?;
-    let overview = chart(
-        &format!("{title}: the whole run"),
+    let lost = lost_at(summary);
+    let bin = (sc.duration_s / OVERVIEW_POINTS).max(OVERVIEW_EVERY_S);
+    let rows = binned(sc, bin)?;
+    let mark = |x: f64| Mark {
+        x,
+        label: "rotor lost".into(),
+    };
+    let overview_panels = overview_panels(&rows);
+    let overview = chart_marked(
+        &format!("{title}: the whole run ({})", summary.verdict),
         "time [s]",
-        &overview_panels(sc, &rows),
+        &overview_panels,
+        &vec![lost.map(|(t, _)| mark(t)).into_iter().collect::<Vec<_>>(); overview_panels.len()],
     );
-    let (from, to) = zoom_window(sc);
+    let (from, to) = zoom_window(sc, lost);
     let rows = traced(sc, from, to, ZOOM_EVERY_S)?;
-    let zoom = chart(
-        &format!(
-            "{title}: the last electrical turns, {:.1} ms",
-            (to - from) * 1e3
+    let what = match lost {
+        Some((t, rpm)) => format!(
+            "the rotor lost at {t:.4} s, {rpm:.0} rpm (the first commutation beyond ±{:.0}° of the true angle)",
+            sc.verdict_rule.sync_error_deg
         ),
+        None => "the last electrical turns".to_string(),
+    };
+    let zoom_panels = zoom_panels(&rows);
+    let zoom = chart_marked(
+        &format!("{title}: {what}, {:.1} ms", (to - from) * 1e3),
         "time [ms]",
-        &zoom_panels(&rows),
+        &zoom_panels,
+        &vec![
+            lost.map(|(t, _)| mark(t * 1e3))
+                .into_iter()
+                .collect::<Vec<_>>();
+            zoom_panels.len()
+        ],
     );
     Ok(vec![
         ("overview.svg".into(), overview),
@@ -52,7 +76,17 @@ pub fn scenario_plots(sc: &Scenario) -> Result<Vec<(String, String)>, RunError> 
     ])
 }
 
+/// Where a drive that failed lost its rotor: (t \[s\], true speed \[rpm\]).
+pub fn lost_at(summary: &Summary) -> Option<(f64, f64)> {
+    summary.sync_lost_at.filter(|_| {
+        !summary.verdict.is_success() && summary.verdict != crate::verdict::Verdict::Unsettled
+    })
+}
+
 fn describe(sc: &Scenario) -> String {
+    if !sc.description.is_empty() {
+        return sc.description.clone();
+    }
     let p = sc.speed_rpm.points();
     if p.len() == 1 {
         format!("{:.0} rpm for {} s", p[0].1, sc.duration_s)
@@ -73,12 +107,77 @@ fn traced(sc: &Scenario, from_s: f64, to_s: f64, every_s: f64) -> Result<Vec<Tra
     Ok(rows)
 }
 
-/// Three electrical turns at the final command, 1–20 ms, ending with the run.
-fn zoom_window(sc: &Scenario) -> (f64, f64) {
-    let rpm = sc.speed_rpm.value_at(sc.duration_s).max(1.0);
-    let turn = 60.0 / (rpm * f64::from(sc.config.motor.poles / 2));
-    let span = (3.0 * turn).clamp(1e-3, 20e-3).min(sc.duration_s);
-    (sc.duration_s - span, sc.duration_s)
+/// The run traced every [`OVERVIEW_EVERY_S`] (at most `bin`), each bin of `bin` seconds
+/// one row: the mean of every signal, timed at the bin's middle.
+fn binned(sc: &Scenario, bin: f64) -> Result<Vec<TraceRow>, RunError> {
+    let mut sc = sc.clone();
+    let every = OVERVIEW_EVERY_S.min(bin);
+    sc.trace = Some(TraceSpec {
+        every_s: every,
+        from_s: 0.0,
+        to_s: sc.duration_s,
+    });
+    let mut out = Vec::new();
+    let (mut sum, mut n, mut k) = (TraceRow::default(), 0u32, 0u64);
+    let close = |sum: &mut TraceRow, n: &mut u32, k: u64, out: &mut Vec<TraceRow>| {
+        if *n > 0 {
+            let f = 1.0 / f64::from(*n);
+            let mut r = *sum;
+            for x in [
+                &mut r.speed_rpm,
+                &mut r.speed_est_rpm,
+                &mut r.duty,
+                &mut r.torque_nm,
+                &mut r.speed_ref_rpm,
+                &mut r.current_ref_a,
+                &mut r.load_nm,
+                &mut r.supply_v,
+                &mut r.i_shunt_a,
+            ] {
+                *x *= f;
+            }
+            r.t_s = (k as f64 + 0.5) * bin;
+            out.push(r);
+        }
+        (*sum, *n) = (TraceRow::default(), 0);
+    };
+    run(&sc, |r| {
+        let kr = (r.t_s / bin).floor() as u64;
+        if kr != k {
+            close(&mut sum, &mut n, k, &mut out);
+            k = kr;
+        }
+        sum.speed_rpm += r.speed_rpm;
+        sum.speed_est_rpm += r.speed_est_rpm;
+        sum.duty += r.duty;
+        sum.torque_nm += r.torque_nm;
+        sum.speed_ref_rpm += r.speed_ref_rpm;
+        sum.current_ref_a += r.current_ref_a;
+        sum.load_nm += r.load_nm;
+        sum.supply_v += r.supply_v;
+        sum.i_shunt_a += r.i_shunt_a;
+        n += 1;
+    })?;
+    close(&mut sum, &mut n, k, &mut out);
+    Ok(out)
+}
+
+/// Three electrical turns, 1–20 ms: around `lost` (t, rpm), two turns before it and one
+/// after, at that speed; otherwise at the final command, ending with the run.
+fn zoom_window(sc: &Scenario, lost: Option<(f64, f64)>) -> (f64, f64) {
+    let turn_at = |rpm: f64| 60.0 / (rpm.abs().max(1.0) * f64::from(sc.config.motor.poles / 2));
+    match lost {
+        Some((t, rpm)) => {
+            let span = (3.0 * turn_at(rpm)).clamp(1e-3, 20e-3).min(sc.duration_s);
+            let from = (t - span * 2.0 / 3.0).clamp(0.0, sc.duration_s - span);
+            (from, from + span)
+        }
+        None => {
+            let rpm = sc.speed_rpm.value_at(sc.duration_s);
+            let span = (3.0 * turn_at(rpm)).clamp(1e-3, 20e-3).min(sc.duration_s);
+            (sc.duration_s - span, sc.duration_s)
+        }
+    }
 }
 
 fn line(name: &str, points: Vec<(f64, f64)>) -> Series {
@@ -97,33 +196,38 @@ fn steps(name: &str, points: Vec<(f64, f64)>) -> Series {
     }
 }
 
-fn overview_panels(sc: &Scenario, rows: &[TraceRow]) -> Vec<Panel> {
+fn overview_panels(rows: &[TraceRow]) -> Vec<Panel> {
     let of = |f: fn(&TraceRow) -> f64| rows.iter().map(|r| (r.t_s, f(r))).collect();
-    // The command at the same instants, with its steps drawn as steps.
-    let command = rows
-        .iter()
-        .map(|r| (r.t_s, sc.speed_rpm.value_at(r.t_s)))
-        .collect();
     vec![
         Panel {
             y_label: "speed [rpm]".into(),
             series: vec![
-                steps("command", command),
+                line("command", of(|r| r.speed_ref_rpm)),
                 line("true", of(|r| r.speed_rpm)),
-                steps("chip's estimate (FG)", of(|r| r.speed_est_rpm)),
+                line("chip's estimate (FG)", of(|r| r.speed_est_rpm)),
+            ],
+        },
+        Panel {
+            y_label: "current [A]".into(),
+            series: vec![
+                line("command (speed PI)", of(|r| r.current_ref_a)),
+                line("shunt, mean", of(|r| r.i_shunt_a)),
             ],
         },
         Panel {
             y_label: "duty [fraction of the carrier]".into(),
-            series: vec![steps("duty", of(|r| r.duty))],
+            series: vec![line("duty", of(|r| r.duty))],
         },
         Panel {
             y_label: "torque [mN·m]".into(),
-            series: vec![line("Te, sampled", of(|r| r.torque_nm * 1e3))],
+            series: vec![
+                line("Te, mean", of(|r| r.torque_nm * 1e3)),
+                line("load T_L", of(|r| r.load_nm * 1e3)),
+            ],
         },
         Panel {
-            y_label: "phase current [A]".into(),
-            series: vec![line("i_u, sampled", of(|r| r.i_u))],
+            y_label: "supply [V]".into(),
+            series: vec![line("V_DD", of(|r| r.supply_v))],
         },
     ]
 }
@@ -175,7 +279,8 @@ mod tests {
     #[test]
     fn both_figures_have_every_panel_and_data() {
         let sc = Scenario::hold(DriveConfig::default(), 3000.0, 1.5);
-        let figs = scenario_plots(&sc).unwrap();
+        let summary = run(&sc, |_| {}).unwrap().summary;
+        let figs = scenario_plots(&sc, &summary).unwrap();
         assert_eq!(figs.len(), 2);
         for (name, svg) in &figs {
             assert!(
@@ -194,7 +299,7 @@ mod tests {
             assert!(!svg.contains("NaN"), "{name}");
         }
         // 3000 rpm, 6 pole pairs: a turn is 3.33 ms, the zoom 10 ms.
-        let (a, b) = zoom_window(&sc);
+        let (a, b) = zoom_window(&sc, None);
         assert!((b - a - 10e-3).abs() < 1e-12);
     }
 }

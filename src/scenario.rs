@@ -7,7 +7,9 @@ use crate::config::DriveConfig;
 use crate::drive::{BuildError, DriveEngine, build, build_plugin};
 use crate::metrics::{AngleErrors, SampleStats, TimeStats};
 use crate::profile::{LoadProfile, Profile};
-use crate::verdict::{Ending, Judgement, VerdictRule, Witness};
+use crate::verdict::{
+    Ending, Judgement, VerdictRule, Witness, hold_window_from_s, shortest_hold_s,
+};
 use drive_core::error::ParamError;
 use drive_core::{EngineError, Plant, StopReason, Ticks};
 use plants::BldcPlant;
@@ -18,6 +20,9 @@ use strategies::{Mode, PluginLibrary};
 /// What to simulate.
 #[derive(Clone, Debug)]
 pub struct Scenario {
+    /// What the experiment is for (free text, a scenario file's `description`); titles
+    /// the plots. Empty: the plots describe the command.
+    pub description: String,
     /// Plant, chip and strategy. Its `control.speed_ref_rpm` and `power_stage.supply_v`
     /// are replaced by the profiles' values at t = 0.
     pub config: DriveConfig,
@@ -88,13 +93,14 @@ impl Scenario {
         let mut config = config;
         config.control.speed_ref_rpm = rpm;
         Scenario {
+            description: String::new(),
             config,
             duration_s,
             speed_rpm: Profile::constant(rpm),
             load: LoadProfile::default(),
             supply_v: None,
             profile_update_s: 1e-3,
-            steady_from_s: (duration_s * 2.0 / 3.0).min(duration_s - 0.5).max(0.0),
+            steady_from_s: hold_window_from_s(duration_s),
             trace: None,
             speed_record_s: None,
             plugin: None,
@@ -243,11 +249,17 @@ pub struct TraceRow {
     pub speed_ref_rpm: f64,
     /// The controller's current command (the speed PI's output) \[A\].
     pub current_ref_a: f64,
+    /// The load's torque on the shaft, opposing positive rotation [N·m].
+    pub load_nm: f64,
+    /// Supply V_DD \[V\].
+    pub supply_v: f64,
+    /// True shunt current, positive to ground \[A\] (what the chip's ADC samples).
+    pub i_shunt_a: f64,
 }
 
 impl TraceRow {
     /// The CSV header, in field order.
-    pub const HEADER: &'static str = "t_s,speed_rpm,speed_est_rpm,theta_e_deg,i_u,i_v,i_w,v_u,v_v,v_w,v_n,torque_nm,state,zd,zdf,linear,duty,restarts,speed_ref_rpm,current_ref_a";
+    pub const HEADER: &'static str = "t_s,speed_rpm,speed_est_rpm,theta_e_deg,i_u,i_v,i_w,v_u,v_v,v_w,v_n,torque_nm,state,zd,zdf,linear,duty,restarts,speed_ref_rpm,current_ref_a,load_nm,supply_v,i_shunt_a";
 
     /// A row's usual length as CSV \[bytes\]: every float at full precision (the shortest
     /// decimal that reads back to the same value), ≈ 245 bytes measured at 3000 rpm.
@@ -265,7 +277,8 @@ impl TraceRow {
     /// dominated a traced run); the time is printed to the nanosecond from whole ticks.
     pub fn write_csv(&self, w: &mut impl std::io::Write) -> std::io::Result<()> {
         // The row is assembled here and handed over in one write.
-        let mut row = [0u8; 512];
+        // 18 floats of at most 25 bytes, four flags, the restarts and the time: < 640.
+        let mut row = [0u8; 640];
         let mut n = 0;
         let mut put = |b: &[u8]| {
             row[n..n + b.len()].copy_from_slice(b);
@@ -304,7 +317,13 @@ impl TraceRow {
         put(f.format(self.duty).as_bytes());
         put(b",");
         put(int.of(u64::from(self.restarts)));
-        for x in [self.speed_ref_rpm, self.current_ref_a] {
+        for x in [
+            self.speed_ref_rpm,
+            self.current_ref_a,
+            self.load_nm,
+            self.supply_v,
+            self.i_shunt_a,
+        ] {
             put(b",");
             put(f.format(x).as_bytes());
         }
@@ -355,6 +374,12 @@ impl TraceRow {
             restarts: s.restarts,
             speed_ref_rpm: eng.controller.speed_ref_rpm(),
             current_ref_a: s.current_ref_a,
+            load_nm: eng
+                .plant
+                .load()
+                .torque_nm(o.omega_m, eng.plant.params().motor.coulomb_speed_rad_s),
+            supply_v: eng.plant.params().power_stage.supply_v,
+            i_shunt_a: o.i_shunt,
         }
     }
 }
@@ -417,6 +442,9 @@ pub struct Summary {
     pub verdict: crate::verdict::Verdict,
     /// Why, in one line.
     pub verdict_reason: String,
+    /// For an `unsettled` run: the instant after which a window can judge it (the first
+    /// hand-over, or where the speed settled) \[s\].
+    pub judge_after_s: Option<f64>,
     /// Power-on to the controller's first hand-over to closed loop \[s\] (`None`: never).
     pub handover_s: Option<f64>,
     /// When the rotor first followed the commutation (see [`crate::verdict`]) \[s\].
@@ -612,6 +640,8 @@ pub fn run_observed(
                         && o.i.v.is_finite()
                         && o.i.w.is_finite();
                     witness.instant(t, s.mode == Mode::Running, s.restarts, finite, steady);
+                    let command = e.controller.speed_ref_rpm();
+                    witness.speed(t, o.speed_rpm, command, steady);
                     if commutated {
                         // The table in force: the chip may start narrower than configured.
                         let boundary = e.controller.table().state_start_deg(s.state);
@@ -705,7 +735,11 @@ pub fn run_observed(
     };
     let s = eng.controller.status();
     let sim_s = eng.now().seconds();
-    let Judgement { verdict, reason } = witness.judge(&Ending {
+    let Judgement {
+        verdict,
+        reason,
+        judge_after_s,
+    } = witness.judge(&Ending {
         command_rpm: eng.controller.speed_ref_rpm(),
         speed_mean_rpm: speed.mean(),
         speed_rms_rpm: speed.mean().hypot(speed.std_dev()),
@@ -735,6 +769,7 @@ pub fn run_observed(
             },
             verdict,
             verdict_reason: reason,
+            judge_after_s,
             handover_s: handover,
             started_at_s: witness.started_at_s(),
             sync_lost_at: witness.sync_lost(),
@@ -758,6 +793,44 @@ pub fn run_observed(
         duty,
     })
 }
+
+/// Runs `sc` through `attempt` and, while it ends `unsettled`, again with its window
+/// moved after the start-up: a hold ([`Scenario::hold`]'s window) becomes the shortest
+/// hold that judges it ([`crate::verdict::shortest_hold_s`]); any other scenario keeps
+/// its window's length and starts it there. The run before the old end is the same run,
+/// so the instant it names stays; [`SETTLE_MARGIN_S`] more covers last-digit changes
+/// from the window's own stops. At most [`SETTLE_TRIES`] runs, within
+/// [`MAX_DURATION_S`]. Returns the scenario of the last run with its outcome.
+pub fn settled(
+    sc: &Scenario,
+    mut attempt: impl FnMut(&Scenario) -> Result<Outcome, RunError>,
+) -> Result<(Scenario, Outcome), RunError> {
+    let mut sc = sc.clone();
+    let mut out = attempt(&sc)?;
+    for _ in 1..SETTLE_TRIES {
+        let Some(after) = out.summary.judge_after_s else {
+            break;
+        };
+        let after = after + SETTLE_MARGIN_S;
+        let (from, duration) = if sc.steady_from_s == hold_window_from_s(sc.duration_s) {
+            let d = shortest_hold_s(after);
+            (hold_window_from_s(d), d)
+        } else {
+            (after, after + sc.duration_s - sc.steady_from_s)
+        };
+        if duration <= sc.duration_s || duration > MAX_DURATION_S {
+            break;
+        }
+        (sc.steady_from_s, sc.duration_s) = (from, duration);
+        out = attempt(&sc)?;
+    }
+    Ok((sc, out))
+}
+
+/// Runs [`settled`] makes at most.
+pub const SETTLE_TRIES: usize = 3;
+/// Margin beyond the instant an `unsettled` run names \[s\].
+pub const SETTLE_MARGIN_S: f64 = 0.05;
 
 #[derive(Copy, Clone, Debug)]
 enum Event {

@@ -88,7 +88,7 @@ impl RunRecord {
     /// The record of a run of `sc` that gave `summary`: what `drive-bench run --json`
     /// writes and `bldc_drive.simulate` returns.
     pub fn of(sc: &Scenario, summary: Summary) -> Self {
-        Self::new(ScenarioFile::of(sc, ""), summary)
+        Self::new(ScenarioFile::of(sc), summary)
     }
 
     /// The record as JSON, as `drive-bench run --json` writes it.
@@ -174,6 +174,7 @@ impl ScenarioFile {
         }
         let mut sc = Scenario::hold(config, self.speed_rpm.value_at(0.0), self.duration_s);
         sc.plugin = plugin;
+        sc.description = self.description.clone();
         sc.speed_rpm = self.speed_rpm.clone();
         sc.load = self.load.clone();
         sc.supply_v = self.supply_v.clone();
@@ -192,10 +193,10 @@ impl ScenarioFile {
 
     /// The file that describes `sc` completely: every config key written out, the
     /// strategy by name. Running it again gives the same run.
-    pub fn of(sc: &Scenario, description: &str) -> Self {
+    pub fn of(sc: &Scenario) -> Self {
         let config = toml::Table::try_from(&sc.config).unwrap_or_default();
         ScenarioFile {
-            description: description.to_string(),
+            description: sc.description.clone(),
             strategy: Some(match &sc.plugin {
                 Some(p) => p.name().to_string(),
                 None => sc.config.strategy.name.to_string(),
@@ -282,7 +283,7 @@ max_restarts = 2
             .unwrap()
             .scenario(&DriveConfig::default(), &[])
             .unwrap();
-        let again = ScenarioFile::from_toml(&ScenarioFile::of(&sc, "x").to_toml())
+        let again = ScenarioFile::from_toml(&ScenarioFile::of(&sc).to_toml())
             .unwrap()
             .scenario(&DriveConfig::default(), &[])
             .unwrap();

@@ -25,7 +25,7 @@
 //! runs; an error names the case's index, the key, the value and the rule.
 
 use crate::case::{Case, CaseError};
-use crate::scenario::{RunError, Scenario, Summary, run};
+use crate::scenario::{RunError, Scenario, Summary, run, settled};
 use serde::ser::{Serialize, SerializeMap, Serializer};
 use serde_json::Value;
 use std::path::Path;
@@ -110,9 +110,15 @@ pub struct Row {
     pub summary: Summary,
 }
 
-/// Runs case `index` (whose scenario is `sc`, from [`scenario_of`]).
+/// Runs case `index` (whose scenario is `sc`, from [`scenario_of`]). A case that gives
+/// neither a duration nor a scenario is a hold lengthened until its window judges the
+/// drive after its start-up ([`crate::scenario::settled`]): its `sim_s` says how long.
 pub fn run_row(index: usize, case: &Case, sc: &Scenario) -> Result<Row, RunError> {
-    let out = run(sc, |_| {})?;
+    let out = if case.duration_s.is_none() && case.scenario.is_none() {
+        settled(sc, |s| run(s, |_| {}))?.1
+    } else {
+        run(sc, |_| {})?
+    };
     Ok(Row {
         case: index,
         seed: sc.config.sensing.seed,

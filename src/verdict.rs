@@ -28,6 +28,18 @@
 //! speed below [`VerdictRule::rest_rpm`]) and the controller did not restart there; any
 //! other ending of a 0 command is judged as before (a drive that keeps turning is
 //! `off-speed` or `lost-sync`, one that restarted `lost-sync`).
+//!
+//! A window can only judge a drive that has finished starting. After `gave-up` and
+//! before `not-started`, a run is `unsettled` (not judged) when its window began before
+//! the first hand-over to closed loop with no restart before it (the run ended while the
+//! first start-up was still on its planned course), or when, with a constant command
+//! over the window, the true speed (low-passed over [`SETTLE_TAU_S`], sampled every
+//! [`SETTLE_SAMPLE_S`], to see through the commutation ripple) was outside the
+//! tolerance only in the window's first half and inside from then to the end: it was
+//! still settling there. A speed that leaves the tolerance in the second half is not
+//! settling but hunting or off, and is judged as before. The reason names the hand-over
+//! or the settling instant and the shortest hold ([`shortest_hold_s`]) whose window
+//! begins after it.
 
 use crate::metrics::wrap_deg;
 use serde::Serialize;
@@ -54,12 +66,18 @@ pub enum Verdict {
     /// Told to stop (a command of 0), the rotor is at rest and the controller did not
     /// restart it: a success.
     Stopped,
+    /// Not judged: the steady-state window began before the first hand-over to closed
+    /// loop, or the speed was still settling into its tolerance in the window's first
+    /// half. The run was too short for its window; the reason names the start-up and
+    /// the shortest hold that judges.
+    Unsettled,
 }
 
 impl Verdict {
-    /// Every verdict: those of a speed command best first, then `stopped` (last, so that
-    /// the FMU's enumeration items, counted from 1 in this order, keep their numbers).
-    pub const ALL: [Verdict; 8] = [
+    /// Every verdict: those of a speed command best first, then `stopped` and
+    /// `unsettled` (last, in the order they were added, so that the FMU's enumeration
+    /// items, counted from 1 in this order, keep their numbers).
+    pub const ALL: [Verdict; 9] = [
         Verdict::Running,
         Verdict::OffSpeed,
         Verdict::LostSync,
@@ -68,6 +86,7 @@ impl Verdict {
         Verdict::GaveUp,
         Verdict::NonFinite,
         Verdict::Stopped,
+        Verdict::Unsettled,
     ];
 
     /// The name used in tables, JSON and CSV.
@@ -81,6 +100,7 @@ impl Verdict {
             Verdict::GaveUp => "gave-up",
             Verdict::NonFinite => "non-finite",
             Verdict::Stopped => "stopped",
+            Verdict::Unsettled => "unsettled",
         }
     }
 
@@ -96,6 +116,7 @@ impl Verdict {
             Verdict::GaveUp => 7,
             Verdict::NonFinite => 8,
             Verdict::Stopped => 0,
+            Verdict::Unsettled => 9,
         }
     }
 
@@ -120,6 +141,24 @@ impl fmt::Display for Verdict {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         f.write_str(self.as_str())
     }
+}
+
+/// Time constant of the low-passed true speed whose settling the window needs \[s\].
+pub const SETTLE_TAU_S: f64 = 0.02;
+/// Its sampling period \[s\].
+pub const SETTLE_SAMPLE_S: f64 = 1e-3;
+
+/// Where [`crate::scenario::Scenario::hold`] begins the steady-state window of a run of
+/// `duration_s` \[s\]: the last third, at least the last 0.5 s.
+pub fn hold_window_from_s(duration_s: f64) -> f64 {
+    (duration_s * 2.0 / 3.0).min(duration_s - 0.5).max(0.0)
+}
+
+/// The shortest hold whose window ([`hold_window_from_s`]) begins at or after `t_s` \[s\].
+pub fn shortest_hold_s(t_s: f64) -> f64 {
+    // 2d/3 >= t where 2d/3 <= d - 0.5 (d >= 1.5 s), else d - 0.5 >= t.
+    let d = t_s + 0.5;
+    if d < 1.5 { d } else { (1.5 * t_s).max(1.5) }
 }
 
 /// The thresholds of the verdict (see the module doc for the reasoning).
@@ -165,6 +204,9 @@ pub struct Judgement {
     pub verdict: Verdict,
     /// Why, in one line with the numbers that decided it.
     pub reason: String,
+    /// For `unsettled`: the instant after which a window can judge (the hand-over, or
+    /// where the speed settled) \[s\].
+    pub judge_after_s: Option<f64>,
 }
 
 /// Whether the commutation follows the true rotor now: the length of the current run of
@@ -345,6 +387,24 @@ pub struct Witness {
     window_in_sync: u64,
     window_left_closed_loop: bool,
     restarts_at_window: Option<u32>,
+    /// The first hand-over to closed loop, and the restarts before it.
+    handover: Option<(f64, u32)>,
+    /// The window's first instant.
+    window_from_s: Option<f64>,
+    settle: Settle,
+}
+
+/// The low-passed true speed and where it was off the command in the window.
+#[derive(Clone, Debug, Default)]
+struct Settle {
+    /// Last sample: (t \[s\], low-passed rpm).
+    last: Option<(f64, f64)>,
+    /// The command at the window's first sample \[rpm\], and whether it moved after.
+    command: Option<f64>,
+    command_moved: bool,
+    /// The last in-window sample outside the tolerance, and whether the last one was.
+    last_off_s: Option<f64>,
+    off_now: bool,
 }
 
 /// What the run ended with, for [`Witness::judge`].
@@ -414,6 +474,12 @@ impl Witness {
         in_window: bool,
     ) {
         self.handed_over |= closed_loop;
+        if closed_loop && self.handover.is_none() {
+            self.handover = Some((t_s, restarts));
+        }
+        if in_window {
+            self.window_from_s.get_or_insert(t_s);
+        }
         if !closed_loop {
             // A restart: the commutations before it do not carry over into a start.
             self.streak.reset();
@@ -424,6 +490,28 @@ impl Witness {
         if in_window {
             self.restarts_at_window.get_or_insert(restarts);
             self.window_left_closed_loop |= !closed_loop;
+        }
+    }
+
+    /// The true speed `rpm` at an instant `t_s` of the run, under a command of
+    /// `command_rpm`; `in_window` when inside the steady-state window. Any spacing: it is
+    /// sampled every [`SETTLE_SAMPLE_S`].
+    pub fn speed(&mut self, t_s: f64, rpm: f64, command_rpm: f64, in_window: bool) {
+        let s = &mut self.settle;
+        let lp = match s.last {
+            Some((t0, _)) if t_s - t0 < SETTLE_SAMPLE_S => return,
+            Some((t0, m)) => m + (1.0 - (-(t_s - t0) / SETTLE_TAU_S).exp()) * (rpm - m),
+            None => rpm,
+        };
+        s.last = Some((t_s, lp));
+        if in_window {
+            s.command_moved |= s.command.is_some_and(|c| c != command_rpm);
+            s.command.get_or_insert(command_rpm);
+            let tol = self.rule.speed_tolerance * command_rpm.abs().max(1.0);
+            s.off_now = (lp - command_rpm).abs() > tol;
+            if s.off_now {
+                s.last_off_s = Some(t_s);
+            }
         }
     }
 
@@ -443,7 +531,11 @@ impl Witness {
         let r = &self.rule;
         let cmd = end.command_rpm;
         let mean = end.speed_mean_rpm;
-        let j = |verdict, reason: String| Judgement { verdict, reason };
+        let j = |verdict, reason: String| Judgement {
+            verdict,
+            reason,
+            judge_after_s: None,
+        };
         if let Some(t) = self.non_finite_at_s {
             return j(
                 Verdict::NonFinite,
@@ -474,6 +566,9 @@ impl Witness {
                     end.restarts.0, end.restarts.1
                 ),
             );
+        }
+        if let Some(j) = self.unsettled(end) {
+            return j;
         }
         if self.started_at_s.is_none() {
             let why = if self.handed_over {
@@ -554,6 +649,54 @@ impl Witness {
                 100.0 * off
             ),
         )
+    }
+}
+
+impl Witness {
+    /// The `unsettled` verdict, when the window judged a drive still starting (see the
+    /// module doc).
+    fn unsettled(&self, end: &Ending) -> Option<Judgement> {
+        let w0 = self.window_from_s?;
+        let first_start = match self.handover {
+            None => Some((
+                "the run ended before the first hand-over to closed loop".to_string(),
+                w0,
+            )),
+            Some((t, 0)) if t > w0 => Some((
+                format!("the first hand-over to closed loop came at {t:.3} s"),
+                t,
+            )),
+            _ => None,
+        };
+        let (why, from) = match first_start {
+            Some(x) => x,
+            None => {
+                let s = &self.settle;
+                let settled = s.last_off_s?;
+                let end_s = s.last?.0;
+                // Off only in the window's first half, and inside since: settling.
+                if s.command_moved || s.off_now || settled > (w0 + end_s) / 2.0 {
+                    return None;
+                }
+                (
+                    format!(
+                        "the true speed (low-passed over {:.0} ms) came within ±{:.0} % of the {:.0} rpm command only at {settled:.3} s",
+                        SETTLE_TAU_S * 1e3,
+                        100.0 * self.rule.speed_tolerance,
+                        end.command_rpm
+                    ),
+                    settled,
+                )
+            }
+        };
+        Some(Judgement {
+            verdict: Verdict::Unsettled,
+            reason: format!(
+                "not judged: the steady-state window began at {w0:.3} s, inside the start-up: {why}; a hold of at least {:.2} s (its window the last third) begins its window after that",
+                shortest_hold_s(from)
+            ),
+            judge_after_s: Some(from),
+        })
     }
 }
 
@@ -692,6 +835,85 @@ mod tests {
             ..ending(3000.0)
         });
         assert_eq!(j.verdict, Verdict::LostSync, "{}", j.reason);
+    }
+
+    /// A witness of a drive handed over at `handover_s` and started at once, whose
+    /// window (from 2 s to 3 s) sees the true speed `rpm(t)` ten times a commutation
+    /// under a 3000 rpm command, in synchronism (3600 commutations a second).
+    fn settling(handover_s: f64, rpm: impl Fn(f64) -> f64) -> Witness {
+        let mut w = Witness::new(VerdictRule::default(), 12);
+        for k in 0..108_000 {
+            let t = f64::from(k) / 36_000.0;
+            let in_window = t >= 2.0;
+            w.instant(t, t >= handover_s, 0, true, in_window);
+            w.speed(t, rpm(t), 3000.0, in_window);
+            if t >= handover_s && k % 10 == 0 {
+                let b = 30.0 * f64::from(k / 10 % 12);
+                w.commutation(t, b, b, rpm(t), in_window);
+            }
+        }
+        w
+    }
+
+    #[test]
+    fn a_window_before_the_hand_over_is_unsettled_and_names_it() {
+        let j = settling(2.4, |_| 3000.0).judge(&ending(3000.0));
+        assert_eq!(j.verdict, Verdict::Unsettled, "{}", j.reason);
+        assert!(
+            j.reason
+                .contains("hand-over to closed loop came at 2.400 s"),
+            "{}",
+            j.reason
+        );
+        // 1.5 × 2.4 s: the window (the last third) of a 3.6 s hold begins at 2.4 s.
+        assert!(j.reason.contains("at least 3.60 s"), "{}", j.reason);
+        assert_eq!(j.judge_after_s, Some(2.4));
+        // A restart before the hand-over: the start-up failed once, not a short run.
+        let mut w = settling(2.4, |_| 3000.0);
+        w.handover = w.handover.map(|(t, _)| (t, 1));
+        assert_ne!(w.judge(&ending(3000.0)).verdict, Verdict::Unsettled);
+        assert_eq!(
+            settling(1.0, |_| 3000.0).judge(&ending(3000.0)).verdict,
+            Verdict::Running
+        );
+    }
+
+    #[test]
+    fn a_speed_settling_in_the_first_half_is_unsettled_and_hunting_is_not() {
+        // 5 % over the command, decaying with τ = 0.1 s from 2 s: within the 2 % band
+        // (low-passed, a lag of ≈ 20 ms) after 2 + 0.1·ln 2.5 ≈ 2.092 s.
+        let overshoot = |t: f64| 3000.0 * (1.0 + 0.05 * (-(t - 2.0).max(0.0) / 0.1).exp());
+        let j = settling(1.0, overshoot).judge(&ending(3000.0));
+        assert_eq!(j.verdict, Verdict::Unsettled, "{}", j.reason);
+        let at = j.judge_after_s.unwrap();
+        assert!((2.09..2.13).contains(&at), "{at}");
+        // Hunting ±5 % at 10 Hz (±3.1 % low-passed) through the whole window: off the
+        // band in its second half too, so judged as is (its mean is the command).
+        let hunting = |t: f64| 3000.0 * (1.0 + 0.05 * (std::f64::consts::TAU * 10.0 * t).sin());
+        let j = settling(1.0, hunting).judge(&ending(3000.0));
+        assert_eq!(j.verdict, Verdict::Running, "{}", j.reason);
+        // Off only in the second half (a late disturbance): judged as is, not unsettled.
+        let late = |t: f64| {
+            if (2.6..2.7).contains(&t) {
+                3300.0
+            } else {
+                3000.0
+            }
+        };
+        assert_ne!(
+            settling(1.0, late).judge(&ending(3000.0)).verdict,
+            Verdict::Unsettled
+        );
+    }
+
+    #[test]
+    fn the_shortest_hold_begins_its_window_at_the_instant() {
+        for t in [0.1, 0.75, 0.999, 1.0, 1.2, 2.0, 7.5] {
+            let d = shortest_hold_s(t);
+            assert!((hold_window_from_s(d) - t).abs() < 1e-12, "{t}: {d}");
+            // And no shorter hold does.
+            assert!(hold_window_from_s(d - 1e-3) < t, "{t}");
+        }
     }
 
     #[test]

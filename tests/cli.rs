@@ -38,7 +38,7 @@ fn run_writes_a_trace_with_the_documented_columns_and_an_honest_summary() {
         "--speed-rpm",
         "3000",
         "--duration-s",
-        "2.5",
+        "3",
         "--seed",
         "7",
         "--trace",
@@ -77,11 +77,11 @@ fn run_writes_a_trace_with_the_documented_columns_and_an_honest_summary() {
     let rows: Vec<Vec<f64>> = lines
         .map(|l| l.split(',').map(|x| x.parse().unwrap()).collect())
         .collect();
-    // One row every 100 µs from 0 to 2.5 s inclusive.
-    assert_eq!(rows.len(), 25_001);
+    // One row every 100 µs from 0 to 3 s inclusive.
+    assert_eq!(rows.len(), 30_001);
     let col = |name: &str| header.iter().position(|h| *h == name).unwrap();
     let last = rows.last().unwrap();
-    assert!((last[col("t_s")] - 2.5).abs() < 1e-9);
+    assert!((last[col("t_s")] - 3.0).abs() < 1e-9);
     assert!((last[col("speed_rpm")] - 3000.0).abs() < 150.0);
     assert!(
         rows.iter()
@@ -101,7 +101,7 @@ fn run_writes_a_trace_with_the_documented_columns_and_an_honest_summary() {
     assert!(record["tool"].as_str().unwrap().starts_with("drive-bench "));
     let sc = &record["scenario"];
     assert_eq!(sc["strategy"], "twelve-step-df");
-    assert_eq!(sc["duration_s"], 2.5);
+    assert_eq!(sc["duration_s"], 3.0);
     assert!(sc["seed"].is_u64() && sc["config"]["motor"]["resistance_ohm"].is_f64());
     let j = &record["summary"];
     for key in [
@@ -122,7 +122,7 @@ fn run_writes_a_trace_with_the_documented_columns_and_an_honest_summary() {
         assert!(j.get(key).is_some(), "missing {key}");
     }
     assert_eq!(j["strategy"], "twelve-step-df");
-    assert_eq!(j["sim_s"], 2.5);
+    assert_eq!(j["sim_s"], 3.0);
     // The summary's steady-state mean agrees with the trace's own mean over the window
     // (a uniform 100 µs sampling of the same signal).
     let from = j["steady_from_s"].as_f64().unwrap();
@@ -675,4 +675,32 @@ fn a_bad_sweep_case_is_named_before_anything_runs_or_is_written() {
         assert!(text(&out.stderr).contains(want), "{}", text(&out.stderr));
         assert!(!csv.exists());
     }
+}
+
+#[test]
+fn a_run_too_short_for_its_window_is_not_judged_and_names_the_start_up() {
+    // The built-in drive aligns for 0.7 + 0.038 + 0.015 s (control.align_s), each rounded
+    // to the 327.68 µs align clock, then hands over: at 0.753 s. A 1 s run's window
+    // (its last 0.5 s) begins before that.
+    let out = bench(&["run", "--duration-s", "1"]);
+    let said = text(&out.stdout);
+    assert_eq!(out.status.code(), Some(9), "{said}{}", text(&out.stderr));
+    assert!(said.contains(": unsettled: "), "{said}");
+    assert!(
+        !said.contains("lost-sync") && !said.contains("off-speed"),
+        "{said}"
+    );
+    let align: f64 = [0.7, 0.038, 0.015]
+        .iter()
+        .map(|s: &f64| (s / 327.68e-6).round() * 327.68e-6)
+        .sum();
+    assert!(
+        said.contains(&format!("hand-over to closed loop came at {align:.3} s")),
+        "{said}"
+    );
+    // The hold it names begins its window after the hand-over: 0.753 + 0.5 s.
+    assert!(
+        said.contains(&format!("at least {:.2} s", align + 0.5)),
+        "{said}"
+    );
 }

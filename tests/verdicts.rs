@@ -327,7 +327,8 @@ fn a_command_beyond_reach_is_off_speed_in_synchronism() {
 /// backwards, whatever the chip does.
 #[test]
 fn an_active_load_the_motor_cannot_hold_is_not_running() {
-    let mut sc = Scenario::hold(DriveConfig::default(), 3000.0, 1.0);
+    // 2 s: the window (from 1.33 s) begins after the hand-over (0.75 s).
+    let mut sc = Scenario::hold(DriveConfig::default(), 3000.0, 2.0);
     sc.load.active_nm = Profile::constant(1.0);
     let s = run(&sc, |_| {}).unwrap().summary;
     assert_eq!(s.verdict, Verdict::NotStarted, "{}", s.verdict_reason);

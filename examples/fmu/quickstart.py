@@ -10,6 +10,6 @@ for row in r[::500]:  # every 0.5 s: true speed, the chip's estimate, synchronis
     print(f"{row['time']:4.1f} s  {row['speed_rpm']:7.1f} rpm  "
           f"chip {row['speed_est_rpm']:7.1f} rpm  in sync: {bool(row['in_sync'])}")
 verdicts = ["running", "off_speed", "lost_sync", "stalled", "not_started", "gave_up",
-            "non_finite", "stopped"]  # the `verdict` enumeration's items, from 1
+            "non_finite", "stopped", "unsettled"]  # the `verdict` enumeration's items, from 1
 print("verdict:", verdicts[r["verdict"][-1] - 1])
 sys.exit(0 if r["verdict"][-1] == 1 else 1)

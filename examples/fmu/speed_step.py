@@ -36,7 +36,7 @@ result = simulate_fmu(
 )
 # The verdict enumeration's items, in value order (from 1).
 VERDICTS = ["running", "off_speed", "lost_sync", "stalled", "not_started", "gave_up",
-            "non_finite", "stopped"]
+            "non_finite", "stopped", "unsettled"]
 
 print(" t [s]   true [rpm]   chip [rpm]   duty   in sync")
 for row in result[::500]:

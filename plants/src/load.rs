@@ -95,6 +95,13 @@ impl Load {
         self.coulomb_nm * s + (self.viscous_nms + self.fan_nms2 * wm.abs()) * wm
     }
 
+    /// The whole load torque T_L at speed `wm` \[rad/s\] with the smoothing speed `omega0`
+    /// \[rad/s\] (`motor.coulomb_speed_rad_s`) \[N·m\], opposing positive rotation: what a
+    /// trace shows as the load (the plant itself adds the terms in its step).
+    pub fn torque_nm(&self, wm: f64, omega0: f64) -> f64 {
+        self.active_nm + self.passive_nm(wm, (wm / omega0).tanh())
+    }
+
     /// d(passive)/dωm at speed `wm`, with `ds` = d tanh(ωm/ω0)/dωm \[N·m·s/rad\].
     #[inline]
     pub fn passive_slope(&self, wm: f64, ds: f64) -> f64 {

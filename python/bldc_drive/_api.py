@@ -63,7 +63,8 @@ class Result:
     @property
     def verdict(self) -> str:
         """The verdict: ``running``, ``off-speed``, ``lost-sync``, ``stalled``,
-        ``not-started``, ``gave-up``, ``non-finite`` or ``stopped`` (told 0 rpm, at rest)."""
+        ``not-started``, ``gave-up``, ``non-finite``, ``stopped`` (told 0 rpm, at rest) or
+        ``unsettled`` (the window began inside the start-up: not judged)."""
         return self.summary["verdict"]
 
     def __repr__(self) -> str:

@@ -147,7 +147,7 @@ fn guarded<T>(f: impl FnOnce() -> Result<T, String>) -> Result<T, String> {
 /// A trace held as columns.
 #[derive(Default)]
 struct Trace {
-    floats: [Vec<f64>; 15],
+    floats: [Vec<f64>; 18],
     flags: [Vec<u8>; 4],
     restarts: Vec<u32>,
 }
@@ -179,6 +179,9 @@ impl Trace {
             r.duty,
             r.speed_ref_rpm,
             r.current_ref_a,
+            r.load_nm,
+            r.supply_v,
+            r.i_shunt_a,
         ];
         for (c, x) in self.floats.iter_mut().zip(floats) {
             c.push(x);

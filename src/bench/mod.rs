@@ -19,7 +19,7 @@ pub mod vibration;
 use crate::config::DriveConfig;
 use crate::metrics::{Disturbance, StepResponse, disturbance, held_above, step_response};
 use crate::profile::{LoadProfile, Profile};
-use crate::scenario::{RunError, Scenario, Summary, TraceRow, TraceSpec, run};
+use crate::scenario::{RunError, Scenario, Summary, TraceRow, TraceSpec, run, settled};
 use drive_core::pwm::PwmSchemeKind;
 use range::Range;
 use serde::Serialize;
@@ -533,18 +533,23 @@ pub fn compare(
                 let mut sc = Scenario::hold(config_of(v), rpm, plan.grid_duration_s);
                 sc.plugin = variants[v].plugin.clone();
                 let traced = rpm == plan.trace_rpm;
-                if traced {
-                    // One electrical turn at this speed plus margin, at 0.5 µs.
-                    let turn = 60.0 / rpm / f64::from(base.motor.poles / 2);
-                    let from = sc.steady_from_s;
-                    sc.trace = Some(TraceSpec {
-                        every_s: 0.5e-6,
-                        from_s: from,
-                        to_s: from + 1.1 * turn,
-                    });
-                }
                 let mut rows = Vec::new();
-                let out = run(&sc, |r| rows.push(*r))?;
+                // Lengthened while its window falls in the start-up.
+                let (_, out) = settled(&sc, |sc| {
+                    let mut sc = sc.clone();
+                    if traced {
+                        // One electrical turn at this speed plus margin, at 0.5 µs.
+                        let turn = 60.0 / rpm / f64::from(base.motor.poles / 2);
+                        let from = sc.steady_from_s;
+                        sc.trace = Some(TraceSpec {
+                            every_s: 0.5e-6,
+                            from_s: from,
+                            to_s: from + 1.1 * turn,
+                        });
+                    }
+                    rows.clear();
+                    run(&sc, |r| rows.push(*r))
+                })?;
                 let point = GridPoint {
                     variant: label(v),
                     summary: out.summary,

@@ -11,6 +11,7 @@ use bldc_drive::scenario_file::RunRecord;
 use bldc_drive::strategies::{PluginLibrary, StrategyName};
 use bldc_drive::sweep;
 use bldc_drive::tune;
+use bldc_drive::verdict::Verdict;
 use clap::{Args, Parser, Subcommand};
 use std::io::{BufWriter, IsTerminal, Write};
 use std::path::{Path, PathBuf};
@@ -533,15 +534,23 @@ fn run_one(a: RunArgs, plugins: &[PluginLibrary]) -> Result<i32, String> {
         s.restarts,
         s.realtime_factor
     );
-    let figures = if s.verdict.is_running() {
-        figures
-    } else {
-        format!("not a valid measurement (the drive failed): {figures}")
+    let figures = match s.verdict {
+        v if v.is_success() => figures,
+        Verdict::Unsettled => {
+            format!("not a valid measurement (the window is in the start-up): {figures}")
+        }
+        _ => format!("not a valid measurement (the drive failed): {figures}"),
     };
-    let text = format!(
+    let mut text = format!(
         "{} at {:.0} rpm: {}: {}\n  {figures}\n",
         s.strategy, s.speed_ref_rpm, s.verdict, s.verdict_reason
     );
+    if let Some((t, rpm)) = plots::lost_at(s) {
+        text.push_str(&format!(
+            "  the rotor was lost at t = {t:.4} s, at {rpm:.0} rpm (the first commutation beyond ±{:.0}° of the true angle)\n",
+            sc.verdict_rule.sync_error_deg
+        ));
+    }
     // A reader that went away (`| head`) is not an error of the run: the verdict still
     // sets the exit status.
     let _ = std::io::stdout().lock().write_all(text.as_bytes());
@@ -551,7 +560,7 @@ fn run_one(a: RunArgs, plugins: &[PluginLibrary]) -> Result<i32, String> {
     if let Some(d) = &a.plot {
         let mut untraced = sc.clone();
         untraced.trace = None;
-        for (name, svg) in plots::scenario_plots(&untraced).map_err(|e| e.to_string())? {
+        for (name, svg) in plots::scenario_plots(&untraced, s).map_err(|e| e.to_string())? {
             write(&d.join(name), &svg)?;
         }
     }
