@@ -45,6 +45,14 @@ impl DriveConfig {
         Ok(c)
     }
 
+    /// Builds and validates a config from a table of keys, as a config file's: an error
+    /// names the key's path (a table has no lines to point at).
+    pub fn from_table(table: toml::Table) -> Result<Self, ConfigError> {
+        let c: DriveConfig = toml::Value::Table(table).try_into()?;
+        c.validate()?;
+        Ok(c)
+    }
+
     /// Reads and validates the config file at `path`; an error names the file.
     pub fn from_file(path: &std::path::Path) -> Result<Self, String> {
         let named = |e: &dyn std::fmt::Display| format!("{}: {e}", path.display());
