@@ -655,7 +655,7 @@ fn a_bad_sweep_case_is_named_before_anything_runs_or_is_written() {
     for (cases, want) in [
         (
             r#"[{"strategy": "six-step-120", "speed_rpm": 1000}, {"strategy": "six-step-120", "speed_rpm": 1000, "config": {"motor": {"inertia_kgm2": -1}}}]"#,
-            "case 1: config: invalid parameter `motor.inertia_kgm2` = -1",
+            "case 1: config: `motor.inertia_kgm2` = -1 (rule: must be",
         ),
         (
             r#"[{"strategy": "six-step-120", "speed_rpm": 1000, "speeed": 1}]"#,
@@ -675,4 +675,53 @@ fn a_bad_sweep_case_is_named_before_anything_runs_or_is_written() {
         assert!(text(&out.stderr).contains(want), "{}", text(&out.stderr));
         assert!(!csv.exists());
     }
+}
+
+/// The same bad value is worded the same from the command line, a config file, a scenario
+/// file and the library: `` `key` = value (rule: …) ``.
+#[test]
+fn a_bad_value_reads_the_same_from_every_door() {
+    use bldc_drive::case::Case;
+    use bldc_drive::scenario_file::ScenarioFile;
+    let too_low = "`motor.resistance_ohm` = -1 (rule: must be 1e-4..=1e3 Ω)";
+    let nan = "`motor.resistance_ohm` = NaN (rule: must be finite)";
+    for (value, want) in [("-1", too_low), ("nan", nan)] {
+        let cfg = tmp("door.toml");
+        std::fs::write(&cfg, format!("[motor]\nresistance_ohm = {value}\n")).unwrap();
+        let scenario = tmp("door-scenario.toml");
+        let body =
+            format!("duration_s = 1\nspeed_rpm = 3000\n[config.motor]\nresistance_ohm = {value}\n");
+        std::fs::write(&scenario, &body).unwrap();
+        let (c, sc) = (cfg.to_str().unwrap(), scenario.to_str().unwrap());
+        let cli_config = text(&bench(&["run", "--config", c]).stderr);
+        let cli_scenario = text(&bench(&["run", "--scenario", sc]).stderr);
+        let library = ScenarioFile::from_toml(&body)
+            .unwrap()
+            .scenario(&DriveConfig::default(), &[])
+            .unwrap_err()
+            .to_string();
+        for (door, e) in [
+            ("--config", &cli_config),
+            ("--scenario", &cli_scenario),
+            ("library", &library),
+        ] {
+            assert!(e.contains(want), "{door}: {e}");
+        }
+        if value == "-1" {
+            // JSON holds no NaN: a config table from Python or a sweep file.
+            let case = serde_json::json!({"config": {"motor": {"resistance_ohm": -1}}});
+            let e = Case::from_value(case).unwrap().scenario(&[]).unwrap_err();
+            assert!(e.to_string().contains(want), "case: {e}");
+        }
+    }
+    // A constant speed command: the same key and words from the flag and from a case
+    // (Python's `simulate(speed_rpm=nan)` words it with the same formatter).
+    let want = "`speed_rpm` = NaN (rule: must be finite)";
+    let e = text(&bench(&["run", "--speed-rpm", "NaN"]).stderr);
+    assert_eq!(e.trim(), format!("drive-bench: error: {want}"));
+    let case = Case {
+        speed_rpm: Some(f64::NAN),
+        ..Case::default()
+    };
+    assert_eq!(case.scenario(&[]).unwrap_err().to_string(), want);
 }
