@@ -677,6 +677,57 @@ fn a_bad_sweep_case_is_named_before_anything_runs_or_is_written() {
     }
 }
 
+/// Every output option of every command is checked by one rule before any work: the
+/// refusal names the option, the path and the rule.
+#[test]
+fn every_output_path_is_refused_naming_its_option_path_and_rule() {
+    let file = tmp("plain-file");
+    std::fs::write(&file, "x").unwrap();
+    // A folder cannot be made under a file; a file cannot be written there either.
+    let folder = file.join("sub");
+    let json = file.join("sub/out.json");
+    let sweep = tmp("one-case.json");
+    std::fs::write(&sweep, r#"[{"duration_s": 0.01}]"#).unwrap();
+    let (f, j, s) = (
+        folder.to_str().unwrap(),
+        json.to_str().unwrap(),
+        sweep.to_str().unwrap(),
+    );
+    let cases: [(&[&str], &str, &str); 12] = [
+        (&["--out", f, "--quick"], "--out", f),
+        (&["sensitivity", "--out", f], "--out", f),
+        (&["run", "--duration-s", "0.01", "--plot", f], "--plot", f),
+        (&["run", "--duration-s", "0.01", "--json", j], "--json", j),
+        (&["run", "--duration-s", "0.01", "--trace", j], "--trace", j),
+        (
+            &["range", "--strategy", "six-step-120", "--json", j],
+            "--json",
+            j,
+        ),
+        (&["calibrate-lm", "--json", j], "--json", j),
+        (&["sweep", s, "--csv", j], "--csv", j),
+        (&["sweep", s, "--json", j], "--json", j),
+        (&["tune", "--write", j], "--write", j),
+        (&["tune", "--json", j], "--json", j),
+        (
+            &["run", "--duration-s", "0.01", "--plot", f, "--json", j],
+            "--json",
+            j,
+        ),
+    ];
+    for (args, option, path) in cases {
+        let out = bench(args);
+        assert_eq!(out.status.code(), Some(1), "{args:?}");
+        let e = text(&out.stderr);
+        let error = e.lines().find(|l| l.starts_with("drive-bench: error:"));
+        let head = format!("drive-bench: error: {option} {path}: ");
+        assert!(
+            error.is_some_and(|l| l.starts_with(&head) && l.contains(" (rule: ")),
+            "{args:?}: {e}"
+        );
+    }
+}
+
 /// The same bad value is worded the same from the command line, a config file, a scenario
 /// file and the library: `` `key` = value (rule: …) ``.
 #[test]
