@@ -662,7 +662,7 @@ impl PlantParams {
             return Err(ParamError::new(
                 "motor.flux_linkage_wb",
                 m.flux_linkage_wb,
-                "too strong a coupling for the step: with k = √3·(P/2)·λr, solver.max_step_s × max(k/√(2(Lp + M)·J), k²/(2R·J)) must be <= 2 (lower the flux linkage or solver.max_step_s, raise the inertia)",
+                "too strong a coupling for the step, a rule of five keys together: with k = √3·(motor.poles/2)·motor.flux_linkage_wb, solver.max_step_s × max(k/√(2(motor.self_inductance_h + motor.mutual_inductance_h)·motor.inertia_kgm2), k²/(2·motor.resistance_ohm·motor.inertia_kgm2)) must be <= 2 (lower the flux linkage or solver.max_step_s, raise the resistance or the inertia)",
             ));
         }
         Ok(())
@@ -686,7 +686,7 @@ impl PlantParams {
             return Err(ParamError::new(
                 field,
                 value,
-                "too stiff for the step: solver.max_step_s × (Bm + Tc/ω0 + the load's slope) / (J + J_L) must be <= 2 (raise the inertia or motor.coulomb_speed_rad_s, lower solver.max_step_s, or lighten the load)",
+                "too stiff for the step, a rule of several keys together: solver.max_step_s × (motor.viscous_friction_nms + motor.coulomb_friction_nm / motor.coulomb_speed_rad_s + the load's slope) / (motor.inertia_kgm2 + the load's inertia) must be <= 2 (raise the inertia or motor.coulomb_speed_rad_s, lower solver.max_step_s or the friction, or lighten the load)",
             ));
         }
         Ok(())
