@@ -94,9 +94,12 @@ impl DriveConfig {
             Err(ParamError::new(
                 "control.current_limit_a",
                 self.control.current_limit_a,
-                "< the current sense's full scale, min(sensing.current.amplifier_max_v, \
-                 sensing.current.adc_full_scale_v) / (sensing.current.amplifier_gain · \
-                 power_stage.shunt_ohm) (0.5 A by default)",
+                format!(
+                    "must be below the current sense's full scale, \
+                     min(sensing.current.amplifier_max_v, sensing.current.adc_full_scale_v) / \
+                     (sensing.current.amplifier_gain · power_stage.shunt_ohm), here {full_scale_a} A \
+                     (0.5 A by default)"
+                ),
             ))
         }
     }

@@ -86,6 +86,19 @@ fn motor_rules() {
         "motor.flux_linkage_wb",
         "k²/(2·motor.resistance_ohm·motor.inertia_kgm2)",
     );
+    // ... and says how far off the combination is (14.755 against 2 at 1e-4 Ω).
+    refused(
+        |p| p.motor.resistance_ohm = 1e-4,
+        "motor.flux_linkage_wb",
+        "must be <= 2, here 14.755",
+    );
+    // An ordering names the other key with its value: the self inductance's documented
+    // minimum is refused (with the default M) in the words of M's rule.
+    refused(
+        |p| p.motor.self_inductance_h = 1e-7,
+        "motor.mutual_inductance_h",
+        "below motor.self_inductance_h = 0.0000001",
+    );
     refused(
         |p| p.motor.self_inductance_h = f64::INFINITY,
         "motor.self_inductance_h",

@@ -120,7 +120,10 @@ impl MotorParams {
             return Err(ParamError::new(
                 "motor.mutual_inductance_h",
                 self.mutual_inductance_h,
-                "must be below motor.self_inductance_h (two coils cannot couple more than fully)",
+                format!(
+                    "must be below motor.self_inductance_h = {} (two coils cannot couple more than fully)",
+                    self.self_inductance_h
+                ),
             ));
         }
         check_range(
@@ -658,11 +661,14 @@ impl PlantParams {
         let (r, l) = (2.0 * m.resistance_ohm, 2.0 * m.phase_inductance_h());
         let omega_n = k / (l * m.inertia_kgm2).sqrt();
         let inv_tau = k * k / (r * m.inertia_kgm2);
-        if self.solver.max_step_s * omega_n.max(inv_tau) > MAX_MECHANICAL_STEP {
+        let product = self.solver.max_step_s * omega_n.max(inv_tau);
+        if product > MAX_MECHANICAL_STEP {
             return Err(ParamError::new(
                 "motor.flux_linkage_wb",
                 m.flux_linkage_wb,
-                "too strong a coupling for the step, a rule of five keys together: with k = √3·(motor.poles/2)·motor.flux_linkage_wb, solver.max_step_s × max(k/√(2(motor.self_inductance_h + motor.mutual_inductance_h)·motor.inertia_kgm2), k²/(2·motor.resistance_ohm·motor.inertia_kgm2)) must be <= 2 (lower the flux linkage or solver.max_step_s, raise the resistance or the inertia)",
+                format!(
+                    "too strong a coupling for the step, a rule of seven keys together: with k = √3·(motor.poles/2)·motor.flux_linkage_wb, solver.max_step_s × max(k/√(2(motor.self_inductance_h + motor.mutual_inductance_h)·motor.inertia_kgm2), k²/(2·motor.resistance_ohm·motor.inertia_kgm2)) must be <= 2, here {product:.3} (lower the flux linkage or solver.max_step_s, raise the resistance or the inertia)"
+                ),
             ));
         }
         Ok(())
@@ -677,7 +683,8 @@ impl PlantParams {
         let m = &self.motor;
         let slope = m.viscous_friction_nms + m.coulomb_friction_nm / m.coulomb_speed_rad_s;
         let j = m.inertia_kgm2 + load_inertia;
-        if self.solver.max_step_s * (slope + load_slope) / j > MAX_MECHANICAL_STEP {
+        let product = self.solver.max_step_s * (slope + load_slope) / j;
+        if product > MAX_MECHANICAL_STEP {
             let (field, value) = if load_slope > 0.0 {
                 ("load", load_slope)
             } else {
@@ -686,7 +693,9 @@ impl PlantParams {
             return Err(ParamError::new(
                 field,
                 value,
-                "too stiff for the step, a rule of several keys together: solver.max_step_s × (motor.viscous_friction_nms + motor.coulomb_friction_nm / motor.coulomb_speed_rad_s + the load's slope) / (motor.inertia_kgm2 + the load's inertia) must be <= 2 (raise the inertia or motor.coulomb_speed_rad_s, lower solver.max_step_s or the friction, or lighten the load)",
+                format!(
+                    "too stiff for the step, a rule of several keys together: solver.max_step_s × (motor.viscous_friction_nms + motor.coulomb_friction_nm / motor.coulomb_speed_rad_s + the load's slope) / (motor.inertia_kgm2 + the load's inertia) must be <= 2, here {product:.3} (raise the inertia or motor.coulomb_speed_rad_s, lower solver.max_step_s or the friction, or lighten the load)"
+                ),
             ));
         }
         Ok(())

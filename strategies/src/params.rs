@@ -323,7 +323,10 @@ impl ControlParams {
             return Err(ParamError::new(
                 "control.start_current_a",
                 self.start_current_a,
-                "must be in (0, control.current_limit_a] A",
+                format!(
+                    "must be in (0, control.current_limit_a] A, control.current_limit_a = {}",
+                    self.current_limit_a
+                ),
             ));
         }
         check_range(
@@ -726,7 +729,10 @@ impl StrategyParams {
             return Err(ParamError::new(
                 "strategy.lm_speed_max_rpm",
                 self.lm_speed_max_rpm,
-                "must be greater than strategy.lm_speed_min_rpm (ωM > ωm)",
+                format!(
+                    "must be greater than strategy.lm_speed_min_rpm = {} (ωM > ωm)",
+                    self.lm_speed_min_rpm
+                ),
             ));
         }
         check_range(
