@@ -14,7 +14,7 @@ use crate::config::DriveConfig;
 use crate::profile::LoadProfile;
 use crate::scenario::{Scenario, TraceSpec};
 use crate::scenario_file::{ScenarioFile, with_overrides};
-use drive_core::error::ParamError;
+use drive_core::error::{ParamError, check_finite};
 use serde::Serialize;
 use std::path::Path;
 use strategies::{PluginLibrary, StrategyName};
@@ -79,27 +79,25 @@ impl Case {
     /// value of the wrong type, is an error naming the key, the value and the rule.
     pub fn from_value(v: serde_json::Value) -> Result<Self, CaseError> {
         let serde_json::Value::Object(map) = v else {
-            return Err(CaseError(format!(
-                "case = {v} (rule: an object of the keys {})",
-                KEYS.join(", ")
-            )));
+            let rule = format!("an object of the keys {}", KEYS.join(", "));
+            return Err(ParamError::new("case", v, rule).into());
         };
         let mut c = Case::default();
         for (key, x) in map {
             if x.is_null() {
                 continue; // as if not given, like Python's None
             }
-            let number = || {
-                x.as_f64()
-                    .ok_or_else(|| CaseError(format!("`{key}` = {x} (rule: a number)")))
+            let number = || match x.as_f64() {
+                Some(n) => check_finite(&key, n).map(|()| n),
+                None => Err(ParamError::new(&key, &x, "a number")),
             };
             match key.as_str() {
                 "strategy" => match &x {
                     serde_json::Value::String(s) => c.strategy = Some(s.clone()),
                     _ => {
-                        return Err(CaseError(format!(
-                            "`strategy` = {x} (rule: a strategy name, a string)"
-                        )));
+                        return Err(
+                            ParamError::new("strategy", x, "a strategy name, a string").into()
+                        );
                     }
                 },
                 "speed_rpm" => c.speed_rpm = Some(number()?),
@@ -107,9 +105,10 @@ impl Case {
                 "load_nm" => c.load_nm = Some(number()?),
                 "trace_every_us" => c.trace_every_us = Some(number()?),
                 "seed" => {
-                    c.seed = Some(x.as_u64().ok_or_else(|| {
-                        CaseError(format!("`seed` = {x} (rule: a whole number 0..=2^64-1)"))
-                    })?)
+                    c.seed =
+                        Some(x.as_u64().ok_or_else(|| {
+                            ParamError::new("seed", &x, "a whole number 0..=2^64-1")
+                        })?)
                 }
                 "config" => c.config = Some(x),
                 "scenario" => c.scenario = Some(x),
@@ -136,9 +135,9 @@ impl Case {
                     ("load_nm", self.load_nm),
                 ] {
                     if let Some(x) = given {
-                        return Err(CaseError(format!(
-                            "`{key}` = {x} (rule: not with `scenario`, which gives the command, duration and load)"
-                        )));
+                        let rule =
+                            "not with `scenario`, which gives the command, duration and load";
+                        return Err(ParamError::new(key, x, rule).into());
                     }
                 }
                 scenario_file(source)?
@@ -146,6 +145,14 @@ impl Case {
                     .map_err(|e| CaseError(label(source, e)))?
             }
             None => {
+                // A number that is no number is refused before any other rule reads it.
+                for (key, given) in [
+                    ("speed_rpm", self.speed_rpm),
+                    ("duration_s", self.duration_s),
+                    ("load_nm", self.load_nm),
+                ] {
+                    check_finite(key, given.unwrap_or(0.0))?;
+                }
                 // Without them: the config's own strategy and speed command.
                 let rpm = self.speed_rpm.unwrap_or(cfg.control.speed_ref_rpm);
                 let mut sc = Scenario::hold(cfg, rpm, self.duration_s.unwrap_or(3.0));
@@ -170,10 +177,11 @@ impl Case {
             sc.trace = Some(spec);
             sc.validate()?;
             if spec.rows() > MAX_TRACE_ROWS {
-                return Err(CaseError(format!(
-                    "`trace_every_us` = {us} (rule: at most {MAX_TRACE_ROWS} rows, here {}: a longer period or a shorter run)",
+                let rule = format!(
+                    "at most {MAX_TRACE_ROWS} rows, here {}: a longer period or a shorter run",
                     spec.rows()
-                )));
+                );
+                return Err(ParamError::new("trace_every_us", us, rule).into());
             }
         }
         sc.validate()?;
@@ -194,9 +202,12 @@ impl Case {
                 with_overrides(&DriveConfig::default(), &table)
                     .map_err(|e| CaseError(e.to_string()))
             }
-            Some(v) => Err(CaseError(format!(
-                "`config` = {v} (rule: a path to a TOML config or a table of overrides)"
-            ))),
+            Some(v) => Err(ParamError::new(
+                "config",
+                v,
+                "a path to a TOML config or a table of overrides",
+            )
+            .into()),
         }
     }
 }
@@ -215,9 +226,12 @@ fn scenario_file(source: &serde_json::Value) -> Result<Result<ScenarioFile, Stri
                     .try_into::<ScenarioFile>()
                     .map_err(|e| format!("scenario: {e}"))
             })),
-        v => Err(CaseError(format!(
-            "`scenario` = {v} (rule: a path to a scenario file or a table of its keys)"
-        ))),
+        v => Err(ParamError::new(
+            "scenario",
+            v,
+            "a path to a scenario file or a table of its keys",
+        )
+        .into()),
     }
 }
 
@@ -332,7 +346,7 @@ mod tests {
                 json!({"strategy": "six-step-120", "speed_rpm": 1000, "duration_s": 100, "trace_every_us": 1}),
                 "`trace_every_us` = 1 (rule: at most",
             ),
-            (json!([1]), "case = [1] (rule: an object"),
+            (json!([1]), "`case` = [1] (rule: an object"),
             (
                 json!({"strategy": "six-step-120", "speed_rpm": "fast"}),
                 "`speed_rpm` = \"fast\" (rule: a number)",

@@ -45,6 +45,14 @@ impl DriveConfig {
         Ok(c)
     }
 
+    /// Builds and validates a config from a table of keys, as a config file's: an error
+    /// names the key's path (a table has no lines to point at).
+    pub fn from_table(table: toml::Table) -> Result<Self, ConfigError> {
+        let c: DriveConfig = toml::Value::Table(table).try_into()?;
+        c.validate()?;
+        Ok(c)
+    }
+
     /// Reads and validates the config file at `path`; an error names the file.
     pub fn from_file(path: &std::path::Path) -> Result<Self, String> {
         let named = |e: &dyn std::fmt::Display| format!("{}: {e}", path.display());
@@ -86,9 +94,12 @@ impl DriveConfig {
             Err(ParamError::new(
                 "control.current_limit_a",
                 self.control.current_limit_a,
-                "< the current sense's full scale, min(sensing.current.amplifier_max_v, \
-                 sensing.current.adc_full_scale_v) / (sensing.current.amplifier_gain · \
-                 power_stage.shunt_ohm) (0.5 A by default)",
+                format!(
+                    "must be below the current sense's full scale, \
+                     min(sensing.current.amplifier_max_v, sensing.current.adc_full_scale_v) / \
+                     (sensing.current.amplifier_gain · power_stage.shunt_ohm), here {full_scale_a} A \
+                     (0.5 A by default)"
+                ),
             ))
         }
     }

@@ -131,9 +131,13 @@ pub enum ScenarioError {
 }
 
 impl ScenarioFile {
-    /// Parses a document (the scenario is checked by [`ScenarioFile::scenario`]).
+    /// Parses a document (the scenario is checked by [`ScenarioFile::scenario`]). The
+    /// `[config]` table's keys and types are checked here, in the document, so that an
+    /// error points at its line and column.
     pub fn from_toml(text: &str) -> Result<Self, ScenarioError> {
-        Ok(toml::from_str(text)?)
+        let file: Self = toml::from_str(text)?;
+        toml::from_str::<ConfigTable>(text).map_err(ConfigError::from)?;
+        Ok(file)
     }
 
     /// The file as TOML.
@@ -214,6 +218,15 @@ impl ScenarioFile {
     }
 }
 
+/// The `[config]` table of a scenario document read as a config (every key optional), the
+/// rest ignored: its keys and types checked where the user wrote them.
+#[derive(Deserialize)]
+struct ConfigTable {
+    #[serde(default)]
+    #[allow(dead_code)] // read for its errors only
+    config: DriveConfig,
+}
+
 /// `base` with the keys of `overrides` replaced, table by table, then checked.
 pub(crate) fn with_overrides(
     base: &DriveConfig,
@@ -225,7 +238,7 @@ pub(crate) fn with_overrides(
     }
     let mut merged = toml::Table::try_from(base).unwrap_or_default();
     merge(&mut merged, overrides);
-    DriveConfig::from_toml(&toml::to_string(&merged).unwrap_or_default())
+    DriveConfig::from_table(merged)
 }
 
 fn merge(into: &mut toml::Table, from: &toml::Table) {
@@ -292,6 +305,26 @@ max_restarts = 2
         assert_eq!(again.load, sc.load);
         assert_eq!(again.supply_v, sc.supply_v);
         assert_eq!(again.steady_from_s, sc.steady_from_s);
+    }
+
+    #[test]
+    fn config_errors_point_into_the_users_own_file() {
+        // Line 4 of a four-line file (the merged document has some fifty lines).
+        for (line, at) in [
+            ("resistanse_ohm = 2", "line 4, column 1"),
+            ("resistance_ohm = \"x\"", "line 4, column 18"),
+        ] {
+            let text = format!("duration_s = 1\nspeed_rpm = 3000\n[config.motor]\n{line}\n");
+            let e = ScenarioFile::from_toml(&text).unwrap_err().to_string();
+            assert!(e.contains(at) && e.contains(line), "{e}");
+        }
+        // A table has no lines: the key's path, and no position.
+        let table: toml::Table = toml::from_str("[motor]\nresistanse_ohm = 2\n").unwrap();
+        let e = with_overrides(&DriveConfig::default(), &table)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("resistanse_ohm") && e.contains("`motor`"), "{e}");
+        assert!(!e.contains("line"), "{e}");
     }
 
     #[test]

@@ -655,7 +655,7 @@ fn a_bad_sweep_case_is_named_before_anything_runs_or_is_written() {
     for (cases, want) in [
         (
             r#"[{"strategy": "six-step-120", "speed_rpm": 1000}, {"strategy": "six-step-120", "speed_rpm": 1000, "config": {"motor": {"inertia_kgm2": -1}}}]"#,
-            "case 1: config: invalid parameter `motor.inertia_kgm2` = -1",
+            "case 1: config: `motor.inertia_kgm2` = -1 (rule: must be",
         ),
         (
             r#"[{"strategy": "six-step-120", "speed_rpm": 1000, "speeed": 1}]"#,
@@ -703,4 +703,104 @@ fn a_run_too_short_for_its_window_is_not_judged_and_names_the_start_up() {
         said.contains(&format!("at least {:.2} s", align + 0.5)),
         "{said}"
     );
+}
+
+/// Every output option of every command is checked by one rule before any work: the
+/// refusal names the option, the path and the rule.
+#[test]
+fn every_output_path_is_refused_naming_its_option_path_and_rule() {
+    let file = tmp("plain-file");
+    std::fs::write(&file, "x").unwrap();
+    // A folder cannot be made under a file; a file cannot be written there either.
+    let folder = file.join("sub");
+    let json = file.join("sub/out.json");
+    let sweep = tmp("one-case.json");
+    std::fs::write(&sweep, r#"[{"duration_s": 0.01}]"#).unwrap();
+    let (f, j, s) = (
+        folder.to_str().unwrap(),
+        json.to_str().unwrap(),
+        sweep.to_str().unwrap(),
+    );
+    let cases: [(&[&str], &str, &str); 12] = [
+        (&["--out", f, "--quick"], "--out", f),
+        (&["sensitivity", "--out", f], "--out", f),
+        (&["run", "--duration-s", "0.01", "--plot", f], "--plot", f),
+        (&["run", "--duration-s", "0.01", "--json", j], "--json", j),
+        (&["run", "--duration-s", "0.01", "--trace", j], "--trace", j),
+        (
+            &["range", "--strategy", "six-step-120", "--json", j],
+            "--json",
+            j,
+        ),
+        (&["calibrate-lm", "--json", j], "--json", j),
+        (&["sweep", s, "--csv", j], "--csv", j),
+        (&["sweep", s, "--json", j], "--json", j),
+        (&["tune", "--write", j], "--write", j),
+        (&["tune", "--json", j], "--json", j),
+        (
+            &["run", "--duration-s", "0.01", "--plot", f, "--json", j],
+            "--json",
+            j,
+        ),
+    ];
+    for (args, option, path) in cases {
+        let out = bench(args);
+        assert_eq!(out.status.code(), Some(1), "{args:?}");
+        let e = text(&out.stderr);
+        let error = e.lines().find(|l| l.starts_with("drive-bench: error:"));
+        let head = format!("drive-bench: error: {option} {path}: ");
+        assert!(
+            error.is_some_and(|l| l.starts_with(&head) && l.contains(" (rule: ")),
+            "{args:?}: {e}"
+        );
+    }
+}
+
+/// The same bad value is worded the same from the command line, a config file, a scenario
+/// file and the library: `` `key` = value (rule: …) ``.
+#[test]
+fn a_bad_value_reads_the_same_from_every_door() {
+    use bldc_drive::case::Case;
+    use bldc_drive::scenario_file::ScenarioFile;
+    let too_low = "`motor.resistance_ohm` = -1 (rule: must be 1e-4..=1e3 Ω)";
+    let nan = "`motor.resistance_ohm` = NaN (rule: must be finite)";
+    for (value, want) in [("-1", too_low), ("nan", nan)] {
+        let cfg = tmp("door.toml");
+        std::fs::write(&cfg, format!("[motor]\nresistance_ohm = {value}\n")).unwrap();
+        let scenario = tmp("door-scenario.toml");
+        let body =
+            format!("duration_s = 1\nspeed_rpm = 3000\n[config.motor]\nresistance_ohm = {value}\n");
+        std::fs::write(&scenario, &body).unwrap();
+        let (c, sc) = (cfg.to_str().unwrap(), scenario.to_str().unwrap());
+        let cli_config = text(&bench(&["run", "--config", c]).stderr);
+        let cli_scenario = text(&bench(&["run", "--scenario", sc]).stderr);
+        let library = ScenarioFile::from_toml(&body)
+            .unwrap()
+            .scenario(&DriveConfig::default(), &[])
+            .unwrap_err()
+            .to_string();
+        for (door, e) in [
+            ("--config", &cli_config),
+            ("--scenario", &cli_scenario),
+            ("library", &library),
+        ] {
+            assert!(e.contains(want), "{door}: {e}");
+        }
+        if value == "-1" {
+            // JSON holds no NaN: a config table from Python or a sweep file.
+            let case = serde_json::json!({"config": {"motor": {"resistance_ohm": -1}}});
+            let e = Case::from_value(case).unwrap().scenario(&[]).unwrap_err();
+            assert!(e.to_string().contains(want), "case: {e}");
+        }
+    }
+    // A constant speed command: the same key and words from the flag and from a case
+    // (Python's `simulate(speed_rpm=nan)` words it with the same formatter).
+    let want = "`speed_rpm` = NaN (rule: must be finite)";
+    let e = text(&bench(&["run", "--speed-rpm", "NaN"]).stderr);
+    assert_eq!(e.trim(), format!("drive-bench: error: {want}"));
+    let case = Case {
+        speed_rpm: Some(f64::NAN),
+        ..Case::default()
+    };
+    assert_eq!(case.scenario(&[]).unwrap_err().to_string(), want);
 }

@@ -145,3 +145,41 @@ fn current_limit_must_be_readable() {
         "control.current_limit_a",
     );
 }
+
+/// A documented bound refused with the other keys at their defaults is refused in words
+/// that name every key of the rule, and the values that decide it.
+#[test]
+fn a_combined_rule_names_every_key() {
+    // The shunt's documented maximum: the full scale falls to 10 V / (80 · 10 Ω) = 12.5 mA.
+    let err = DriveConfig::from_toml("[power_stage]\nshunt_ohm = 10\n")
+        .unwrap_err()
+        .to_string();
+    for key in [
+        "control.current_limit_a",
+        "power_stage.shunt_ohm",
+        "sensing.current.amplifier_gain",
+        "sensing.current.amplifier_max_v",
+        "sensing.current.adc_full_scale_v",
+        "here 0.0125 A",
+    ] {
+        assert!(err.contains(key), "error `{err}` must name `{key}`");
+    }
+    // ωm's documented maximum against the default ωM = 12941.
+    let err = DriveConfig::from_toml("[strategy]\nlm_speed_min_rpm = 16382\n")
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains("`strategy.lm_speed_max_rpm` = 12941")
+            && err.contains("strategy.lm_speed_min_rpm = 16382"),
+        "{err}"
+    );
+    // The current limit's documented minimum against the default start current.
+    let err = DriveConfig::from_toml("[control]\ncurrent_limit_a = 1e-3\n")
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains("`control.start_current_a` = 0.15")
+            && err.contains("control.current_limit_a = 0.001"),
+        "{err}"
+    );
+}

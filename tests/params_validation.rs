@@ -76,12 +76,33 @@ fn motor_rules() {
     refused(
         |p| p.motor.flux_linkage_wb = f64::NAN,
         "motor.flux_linkage_wb",
-        "1e-6..=1",
+        "must be finite",
+    );
+    // A combined rule names every key it combines: a resistance within its own range
+    // (1e-4 Ω; with the defaults the coupling needs R >= h·k²/(4J) ≈ 7.4e-4 Ω) is refused
+    // by the coupling, whose words name the resistance too.
+    refused(
+        |p| p.motor.resistance_ohm = 1e-4,
+        "motor.flux_linkage_wb",
+        "k²/(2·motor.resistance_ohm·motor.inertia_kgm2)",
+    );
+    // ... and says how far off the combination is (14.755 against 2 at 1e-4 Ω).
+    refused(
+        |p| p.motor.resistance_ohm = 1e-4,
+        "motor.flux_linkage_wb",
+        "must be <= 2, here 14.755",
+    );
+    // An ordering names the other key with its value: the self inductance's documented
+    // minimum is refused (with the default M) in the words of M's rule.
+    refused(
+        |p| p.motor.self_inductance_h = 1e-7,
+        "motor.mutual_inductance_h",
+        "below motor.self_inductance_h = 0.0000001",
     );
     refused(
         |p| p.motor.self_inductance_h = f64::INFINITY,
         "motor.self_inductance_h",
-        "1e-7..=1",
+        "must be finite",
     );
     refused(|p| p.motor.poles = 0, "motor.poles", "even");
     refused(|p| p.motor.poles = 7, "motor.poles", "even");
@@ -151,7 +172,7 @@ fn power_stage_and_sensing_rules() {
     refused(
         |p| p.sensing.comparator.delay_s = f64::NAN,
         "sensing.comparator.delay_s",
-        "100e-6",
+        "must be finite",
     );
     refused(|p| p.solver.max_step_s = 1.0, "solver.max_step_s", "100e-6");
 }
@@ -268,6 +289,12 @@ fn formerly_unbounded_parameters_have_physical_upper_bounds() {
         let over = limit * (1.0 + 1e-6);
         for bad in [over, 1e300, f64::INFINITY] {
             let msg = with(bad).expect_err(key).to_string();
+            // No number at all is refused as such, before any range.
+            let rule = if bad.is_finite() {
+                rule
+            } else {
+                "must be finite"
+            };
             assert!(
                 msg.contains(key) && msg.contains(&bad.to_string()) && msg.contains(rule),
                 "`{msg}` must name `{key}`, {bad} and `{rule}`"

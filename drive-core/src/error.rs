@@ -1,29 +1,48 @@
 //! Parameter validation errors shared by every crate.
+//!
+//! [`ParamError`] is the one wording of a refused value, whatever door it came through
+//! (command line, config or scenario file, Python, FMU): `` `key` = value (rule: …) ``.
+
+use std::borrow::Cow;
 
 /// A parameter that breaks its rule. `field` is the dotted config path (`motor.resistance_ohm`).
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
-#[error("invalid parameter `{field}` = {value}: {rule}")]
+#[error("`{field}` = {value} (rule: {rule})")]
 pub struct ParamError {
     /// Dotted path of the offending field.
     pub field: String,
     /// The value that was given, as written in a config file.
     pub value: String,
     /// The rule it breaks.
-    pub rule: &'static str,
+    pub rule: Cow<'static, str>,
 }
 
+/// The rule of every number that is NaN or infinite, checked before any other: such a
+/// value is not out of a range, it is no number at all.
+pub const NOT_FINITE: &str = "must be finite";
+
 impl ParamError {
-    /// Builds an error for `field`.
+    /// Builds an error for `field`; a number is written as Rust writes an `f64` (`NaN`,
+    /// `inf`, `0.001`), the same from every door.
     pub fn new(
         field: impl Into<String>,
         value: impl std::fmt::Display,
-        rule: &'static str,
+        rule: impl Into<Cow<'static, str>>,
     ) -> Self {
         ParamError {
             field: field.into(),
             value: value.to_string(),
-            rule,
+            rule: rule.into(),
         }
+    }
+}
+
+/// Checks that `value` is finite, naming `field` otherwise.
+pub fn check_finite(field: &str, value: f64) -> Result<(), ParamError> {
+    if value.is_finite() {
+        Ok(())
+    } else {
+        Err(ParamError::new(field, value, NOT_FINITE))
     }
 }
 
@@ -35,7 +54,8 @@ pub fn check_range(
     max: f64,
     rule: &'static str,
 ) -> Result<(), ParamError> {
-    if value.is_finite() && value >= min && value <= max {
+    check_finite(field, value)?;
+    if value >= min && value <= max {
         Ok(())
     } else {
         Err(ParamError::new(field, value, rule))
@@ -44,10 +64,11 @@ pub fn check_range(
 
 /// Checks that `value` is finite and strictly positive.
 pub fn check_positive(field: &str, value: f64) -> Result<(), ParamError> {
-    if value.is_finite() && value > 0.0 {
+    check_finite(field, value)?;
+    if value > 0.0 {
         Ok(())
     } else {
-        Err(ParamError::new(field, value, "must be finite and > 0"))
+        Err(ParamError::new(field, value, "must be > 0"))
     }
 }
 
@@ -58,7 +79,8 @@ pub fn check_positive_max(
     max: f64,
     rule: &'static str,
 ) -> Result<(), ParamError> {
-    if value.is_finite() && value > 0.0 && value <= max {
+    check_finite(field, value)?;
+    if value > 0.0 && value <= max {
         Ok(())
     } else {
         Err(ParamError::new(field, value, rule))
@@ -67,9 +89,10 @@ pub fn check_positive_max(
 
 /// Checks that `value` is finite and not negative.
 pub fn check_non_negative(field: &str, value: f64) -> Result<(), ParamError> {
-    if value.is_finite() && value >= 0.0 {
+    check_finite(field, value)?;
+    if value >= 0.0 {
         Ok(())
     } else {
-        Err(ParamError::new(field, value, "must be finite and >= 0"))
+        Err(ParamError::new(field, value, "must be >= 0"))
     }
 }

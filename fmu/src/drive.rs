@@ -4,6 +4,7 @@
 use crate::variables::{Input, Output, Role, Text, table};
 use bldc_drive::DriveConfig;
 use bldc_drive::drive::{DriveEngine, build, build_plugin};
+use bldc_drive::drive_core::error::check_finite;
 use bldc_drive::drive_core::state::{Persist, Reader, Writer};
 use bldc_drive::drive_core::{EngineError, ParamError, Plant, StopReason, Ticks, persist_fields};
 use bldc_drive::plants::Load;
@@ -15,9 +16,7 @@ use std::path::{Path, PathBuf};
 
 /// The rule of an input's value, as `fmi2Set*` checks it before applying anything.
 pub fn check_input(name: &str, input: Input, x: f64) -> Result<(), String> {
-    if !x.is_finite() {
-        return Err(format!("`{name}` = {x} (rule: must be finite)"));
-    }
+    check_finite(name, x).map_err(|e| e.to_string())?;
     if input == Input::LoadTorque {
         // The library's rule for an active load torque (plants::Load::validate).
         Load {
@@ -25,7 +24,7 @@ pub fn check_input(name: &str, input: Input, x: f64) -> Result<(), String> {
             ..Load::default()
         }
         .validate()
-        .map_err(|e| format!("`{name}` = {x} (rule: {})", e.rule))?;
+        .map_err(|e| ParamError::new(name, x, e.rule).to_string())?;
     }
     Ok(())
 }

@@ -4,7 +4,8 @@
 
 use crate::drive::{Drive, check_input, clamp_speed};
 use crate::variables::{Input, Kind, Output, Role, by_vr, table};
-use bldc_drive::drive_core::{TICK_S, Ticks};
+use bldc_drive::drive_core::error::check_finite;
+use bldc_drive::drive_core::{ParamError, TICK_S, Ticks};
 use std::path::PathBuf;
 
 /// Where an instance is in the co-simulation state machine (FMI 2.0 §4.2.4).
@@ -251,8 +252,8 @@ impl Model {
     /// before termination (they act from the next step on).
     pub fn check_set(&self, access: Access, vr: u32, x: f64) -> Result<Option<String>, Fault> {
         let v = checked(access, vr)?;
-        if !x.is_finite() {
-            return err(format!("`{}` = {x} (rule: must be finite)", v.name));
+        if let Err(e) = check_finite(v.name, x) {
+            return err(e.to_string());
         }
         let before_init = matches!(self.phase, Phase::Instantiated | Phase::InitializationMode);
         match v.role {
@@ -424,9 +425,7 @@ fn next_after(t: f64) -> f64 {
 /// String variable holds no number (its slot is 0).
 pub fn check_held(v: &crate::variables::Variable, x: f64) -> Result<(), String> {
     let name = v.name;
-    if !x.is_finite() {
-        return Err(format!("`{name}` = {x} (rule: must be finite)"));
-    }
+    check_finite(name, x).map_err(|e| e.to_string())?;
     if matches!(v.role, Role::Output(_) | Role::Text(_)) {
         return if x == 0.0 {
             Ok(())
@@ -450,6 +449,10 @@ pub fn check_held(v: &crate::variables::Variable, x: f64) -> Result<(), String> 
         _ => {}
     }
     if v.min.is_some_and(|m| x < m) || v.max.is_some_and(|m| x > m) {
+        // Refused in the library's words where the library has a rule for it.
+        if let Some(e) = own_rule(v, x) {
+            return Err(e.to_string());
+        }
         let (lo, hi) = (
             v.min.unwrap_or(f64::NEG_INFINITY),
             v.max.unwrap_or(f64::INFINITY),
@@ -466,6 +469,20 @@ pub fn check_held(v: &crate::variables::Variable, x: f64) -> Result<(), String> 
         Role::Input(input) => check_input(name, input, x),
         Role::Output(_) | Role::Text(_) => Ok(()),
     }
+}
+
+/// The library's refusal of parameter `v` = `x` with every other parameter at its
+/// default, when it blames `v` itself: the wording the command line and Python give.
+fn own_rule(v: &crate::variables::Variable, x: f64) -> Option<ParamError> {
+    let Role::Parameter { set, .. } = v.role else {
+        return None;
+    };
+    let mut c = bldc_drive::DriveConfig::default();
+    let e = match set(&mut c, x) {
+        Err(e) => e,
+        Ok(()) => c.validate().err()?,
+    };
+    (e.field == v.name).then_some(e)
 }
 
 /// The variable `vr`, if `access` may read or write it.
@@ -663,6 +680,25 @@ mod tests {
         m.exit_initialization().unwrap();
         assert!(m.set(Access::Real, r, 3.0).is_err());
         assert_eq!(m.values[r as usize], 2.0);
+    }
+
+    #[test]
+    fn a_refused_parameter_reads_as_the_command_line_words_it() {
+        // The words of `drive-bench run --config` for the same values (tests/cli.rs).
+        let mut m = Model::new();
+        let r = vr("motor.resistance_ohm");
+        for (x, want) in [
+            (
+                -1.0,
+                "`motor.resistance_ohm` = -1 (rule: must be 1e-4..=1e3 Ω)",
+            ),
+            (
+                f64::NAN,
+                "`motor.resistance_ohm` = NaN (rule: must be finite)",
+            ),
+        ] {
+            assert_eq!(m.set(Access::Real, r, x), Err(Fault::Error(want.into())));
+        }
     }
 
     #[test]

@@ -53,3 +53,44 @@ fn the_generation_date_comes_from_source_date_epoch() {
         "{err}"
     );
 }
+
+/// docs/model.md's table of bounds a combined rule refuses with the other defaults is the
+/// descriptions' (which `variables` checks against the rules): a row for each such
+/// variable, with each of its limits, and no other row.
+#[test]
+fn the_model_docs_list_the_bounds_the_descriptions_tie() {
+    const TIED: &str = "with the other defaults";
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../docs/model.md");
+    let model = std::fs::read_to_string(&path).unwrap();
+    let section = &model[model
+        .find("| key | documented range | with the other defaults |")
+        .unwrap()..];
+    let rows: Vec<&str> = section
+        .lines()
+        .take_while(|l| l.starts_with('|'))
+        .skip(2)
+        .collect();
+    let mut tied = 0;
+    for v in fmu::variables::table() {
+        let Some(at) = v.description.find(TIED) else {
+            continue;
+        };
+        tied += 1;
+        let row = rows
+            .iter()
+            .find(|r| r.starts_with(&format!("| `{}` |", v.name)))
+            .unwrap_or_else(|| panic!("{}: no row in docs/model.md", v.name));
+        let rest = &v.description[at + TIED.len()..];
+        for phrase in ["at least", "at most", "above", "below"] {
+            for (i, _) in rest.match_indices(&format!(" {phrase} ")) {
+                let number: String = rest[i + phrase.len() + 2..]
+                    .chars()
+                    .take_while(|c| c.is_ascii_digit() || matches!(c, '.' | 'e' | '-'))
+                    .collect();
+                let limit = format!("{phrase} {}", number.trim_end_matches('.'));
+                assert!(row.contains(&limit), "{}: `{limit}` not in {row}", v.name);
+            }
+        }
+    }
+    assert_eq!(rows.len(), tied, "{rows:#?}");
+}

@@ -36,19 +36,25 @@ pub enum BackEmfShape {
 pub struct MotorParams {
     /// Number of poles P (θe = P/2·θm). Default 12. Rule: even, 2..=200.
     pub poles: u32,
-    /// PM flux-linkage amplitude per phase λr [Wb·turn]. Default 7.62e-4. Rule: 1e-6..=1.
+    /// PM flux-linkage amplitude per phase λr [Wb·turn]. Default 7.62e-4. Rule: 1e-6..=1,
+    /// and the coupling rule ([`PlantParams::check_coupling`]): with the other defaults at most 0.0416.
     pub flux_linkage_wb: f64,
-    /// Phase self inductance Lp \[H\]. Default 0.63e-3. Rule: 1e-7..=1.
+    /// Phase self inductance Lp \[H\]. Default 0.63e-3. Rule: 1e-7..=1, above
+    /// `mutual_inductance_h`: with the other defaults above 3.7e-4.
     pub self_inductance_h: f64,
     /// Mutual inductance between two phases M \[H\] (enters as −M·di_y/dt). Default 0.37e-3.
-    /// Rule: 0 ≤ M < Lp. With no neutral current the phases see L = Lp + M.
+    /// Rule: 0 ≤ M < Lp (with the other defaults below 6.3e-4). With no neutral current the
+    /// phases see L = Lp + M.
     pub mutual_inductance_h: f64,
-    /// Phase resistance R \[Ω\]. Default 2.2. Rule: 1e-4..=1e3.
+    /// Phase resistance R \[Ω\]. Default 2.2. Rule: 1e-4..=1e3, and the coupling rule
+    /// ([`PlantParams::check_coupling`], here R ≥ h·k²/(4J)): with the other defaults at least 7.38e-4.
     pub resistance_ohm: f64,
     /// Rotor inertia J [kg·m²]. Default 17e-7. Rule: 1e-9..=10, and large enough for the
-    /// friction's slope (see [`PlantParams::check_mechanics`]).
+    /// friction's slope ([`PlantParams::check_mechanics`], J ≥ h·(Bm + Tc/ω0)/2) and for the coupling
+    /// ([`PlantParams::check_coupling`]): with the other defaults at least 2.01e-8.
     pub inertia_kgm2: f64,
-    /// Viscous friction Bm [N·m·s/rad]. Default 1.0e-6. Rule: 0..=1.
+    /// Viscous friction Bm [N·m·s/rad]. Default 1.0e-6. Rule: 0..=1, and the speed's step
+    /// ([`PlantParams::check_mechanics`]): with the other defaults below 0.042.
     ///
     /// The printed 5e-3 N·m/(rad/s) would need 0.52 N·m (≈ 70 A) at 1000 rpm, impossible for
     /// a motor sensed over 0–0.5 A. 1.0e-6 gives 0.52 mN·m at 5000 rpm; with the Coulomb
@@ -57,7 +63,7 @@ pub struct MotorParams {
     /// the 0.5 A range for load and acceleration. J/Bm is 1.7 s.
     pub viscous_friction_nms: f64,
     /// Coulomb (bearing) drag torque Tc [N·m], applied as Tc·tanh(ωm/ω0). Default 2.5e-4.
-    /// Rule: 0..=1.
+    /// Rule: 0..=1, and the speed's step ([`PlantParams::check_mechanics`]): with the other defaults at most 0.0212.
     ///
     /// Viscous friction alone leaves a rotor held by an aligning current an almost undamped
     /// oscillator (ζ ≈ 0.003 at ≈ 19 Hz with 0.5 A), so the chip's 0.7 s alignment would never
@@ -66,7 +72,8 @@ pub struct MotorParams {
     pub coulomb_friction_nm: f64,
     /// Regularisation speed ω0 of the Coulomb drag [rad/s]: below it the drag acts as a
     /// steep viscous term instead of a discontinuity (no stick-slip events). Default 0.5.
-    /// Rule: 1e-3..=1e3.
+    /// Rule: 1e-3..=1e3, and the speed's step ([`PlantParams::check_mechanics`]): with the other defaults at least
+    /// 5.89e-3.
     pub coulomb_speed_rad_s: f64,
     /// Back-EMF shape. Default sinusoidal (published).
     pub back_emf: BackEmfShape,
@@ -120,7 +127,10 @@ impl MotorParams {
             return Err(ParamError::new(
                 "motor.mutual_inductance_h",
                 self.mutual_inductance_h,
-                "must be below motor.self_inductance_h (two coils cannot couple more than fully)",
+                format!(
+                    "must be below motor.self_inductance_h = {} (two coils cannot couple more than fully)",
+                    self.self_inductance_h
+                ),
             ));
         }
         check_range(
@@ -220,7 +230,9 @@ pub struct PowerStageParams {
     /// Diode slope resistance \[Ω\]. Default 0.05. Rule: 0..=10.
     pub diode_resistance_ohm: f64,
     /// Current-sense shunt between the low-side switches and ground \[Ω\]. Default 0.25.
-    /// Rule: 0..=10. It is part of the power circuit (its drop lifts the low rail).
+    /// Rule: 0..=10, and the current sense's full scale, min(amplifier swing, ADC range)/(gain ×
+    /// shunt), must exceed `control.current_limit_a` (`DriveConfig::validate`): with the
+    /// other defaults below 0.5. It is part of the power circuit (its drop lifts the low rail).
     pub shunt_ohm: f64,
     /// Dead time inserted before every switch turn-on \[s\]. Default 0 (the chip chops one
     /// side only). Rule: 0..=10 µs; rounded to whole 20 ns ticks.
@@ -314,15 +326,20 @@ impl PowerStageParams {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct CurrentSenseParams {
-    /// Amplifier gain [V/V]. Default 80 (0.125 V → 10 V). Rule: 0 < x ≤ 1e4.
+    /// Amplifier gain [V/V]. Default 80 (0.125 V → 10 V). Rule: 0 < x ≤ 1e4, and the full
+    /// scale above `control.current_limit_a` (see `power_stage.shunt_ohm`): with the other
+    /// defaults below 160.
     pub amplifier_gain: f64,
-    /// Amplifier output swing: the output is clipped to 0..this \[V\]. Default 10. Rule: 0 < x ≤ 100.
+    /// Amplifier output swing: the output is clipped to 0..this \[V\]. Default 10. Rule: 0 < x ≤
+    /// 100, and the full scale above `control.current_limit_a` (see `power_stage.shunt_ohm`):
+    /// with the other defaults above 5.
     pub amplifier_max_v: f64,
     /// First-order low-pass cut-off \[Hz\]. Default 25 000. Rule: 10 Hz ..= 10 MHz.
     pub filter_cutoff_hz: f64,
     /// ADC resolution \[bits\]. Default 12. Rule: 1..=16.
     pub adc_bits: u32,
-    /// ADC full scale \[V\]. Default 10. Rule: 0 < x ≤ 100.
+    /// ADC full scale \[V\]. Default 10. Rule: 0 < x ≤ 100, and the full scale above
+    /// `control.current_limit_a` (see `power_stage.shunt_ohm`): with the other defaults above 5.
     pub adc_full_scale_v: f64,
     /// Conversion time \[s\]: samples are taken back to back at this period and each result
     /// becomes readable one period after its sample. Default 20 µs. Rule: 0.1 µs ..= 1 s.
@@ -658,11 +675,14 @@ impl PlantParams {
         let (r, l) = (2.0 * m.resistance_ohm, 2.0 * m.phase_inductance_h());
         let omega_n = k / (l * m.inertia_kgm2).sqrt();
         let inv_tau = k * k / (r * m.inertia_kgm2);
-        if self.solver.max_step_s * omega_n.max(inv_tau) > MAX_MECHANICAL_STEP {
+        let product = self.solver.max_step_s * omega_n.max(inv_tau);
+        if product > MAX_MECHANICAL_STEP {
             return Err(ParamError::new(
                 "motor.flux_linkage_wb",
                 m.flux_linkage_wb,
-                "too strong a coupling for the step: with k = √3·(P/2)·λr, solver.max_step_s × max(k/√(2(Lp + M)·J), k²/(2R·J)) must be <= 2 (lower the flux linkage or solver.max_step_s, raise the inertia)",
+                format!(
+                    "too strong a coupling for the step, a rule of seven keys together: with k = √3·(motor.poles/2)·motor.flux_linkage_wb, solver.max_step_s × max(k/√(2(motor.self_inductance_h + motor.mutual_inductance_h)·motor.inertia_kgm2), k²/(2·motor.resistance_ohm·motor.inertia_kgm2)) must be <= 2, here {product:.3} (lower the flux linkage or solver.max_step_s, raise the resistance or the inertia)"
+                ),
             ));
         }
         Ok(())
@@ -677,7 +697,8 @@ impl PlantParams {
         let m = &self.motor;
         let slope = m.viscous_friction_nms + m.coulomb_friction_nm / m.coulomb_speed_rad_s;
         let j = m.inertia_kgm2 + load_inertia;
-        if self.solver.max_step_s * (slope + load_slope) / j > MAX_MECHANICAL_STEP {
+        let product = self.solver.max_step_s * (slope + load_slope) / j;
+        if product > MAX_MECHANICAL_STEP {
             let (field, value) = if load_slope > 0.0 {
                 ("load", load_slope)
             } else {
@@ -686,7 +707,9 @@ impl PlantParams {
             return Err(ParamError::new(
                 field,
                 value,
-                "too stiff for the step: solver.max_step_s × (Bm + Tc/ω0 + the load's slope) / (J + J_L) must be <= 2 (raise the inertia or motor.coulomb_speed_rad_s, lower solver.max_step_s, or lighten the load)",
+                format!(
+                    "too stiff for the step, a rule of several keys together: solver.max_step_s × (motor.viscous_friction_nms + motor.coulomb_friction_nm / motor.coulomb_speed_rad_s + the load's slope) / (motor.inertia_kgm2 + the load's inertia) must be <= 2, here {product:.3} (raise the inertia or motor.coulomb_speed_rad_s, lower solver.max_step_s or the friction, or lighten the load)"
+                ),
             ));
         }
         Ok(())

@@ -150,12 +150,11 @@ def _plain(v: Any, key: str) -> Any:
     if isinstance(v, np.generic):
         v = v.item()
     if isinstance(v, float) and not math.isfinite(v):
-        raise ValueError(f"invalid parameter `{key}` = {v}: must be finite")
+        # JSON cannot carry it to the library: worded here by the library's formatter.
+        raise ValueError(_native.not_finite(key, v))
     if v is None or isinstance(v, (bool, int, float, str)):
         return v
-    raise ValueError(
-        f"invalid parameter `{key}` = {v!r}: must be a number, a string, a list or a dict"
-    )
+    raise ValueError(_native.refusal(key, repr(v), "a number, a string, a list or a dict"))
 
 
 def _frame(arrays: Dict[str, np.ndarray]) -> Any:

@@ -7,6 +7,12 @@ VERSION: str
 def default_config() -> str:
     """The built-in config as a JSON object."""
 
+def not_finite(key: str, value: float) -> str:
+    """The refusal of ``key`` = ``value`` (NaN or infinite), as every door words it."""
+
+def refusal(key: str, value: str, rule: str) -> str:
+    """The refusal of ``key`` = ``value`` (as written) for breaking ``rule``."""
+
 def strategies(plugins: List[str] = ...) -> List[str]:
     """The built-in strategies' names, then the plugins' (paths of plugin libraries)."""
 

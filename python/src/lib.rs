@@ -8,6 +8,7 @@
 
 use bldc_drive::DriveConfig;
 use bldc_drive::case::{Case, CaseError};
+use bldc_drive::drive_core::error::{NOT_FINITE, ParamError};
 use bldc_drive::scenario::{self, TraceRow};
 use bldc_drive::scenario_file::RunRecord;
 use bldc_drive::strategies::{PluginLibrary, StrategyName};
@@ -21,6 +22,18 @@ use std::panic::{AssertUnwindSafe, catch_unwind};
 #[pyfunction]
 fn default_config() -> String {
     DriveConfig::default().to_json()
+}
+
+/// The refusal of `key` = `value` (NaN or infinite), worded as every door words it.
+#[pyfunction]
+fn not_finite(key: &str, value: f64) -> String {
+    ParamError::new(key, value, NOT_FINITE).to_string()
+}
+
+/// The refusal of `key` = `value` (the value as written) for breaking `rule`.
+#[pyfunction]
+fn refusal(key: &str, value: &str, rule: String) -> String {
+    ParamError::new(key, value, rule).to_string()
 }
 
 /// The built-in strategies' names, then those of the plugins at `plugins` (paths).
@@ -217,6 +230,8 @@ impl Trace {
 #[pymodule]
 fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(default_config, m)?)?;
+    m.add_function(wrap_pyfunction!(not_finite, m)?)?;
+    m.add_function(wrap_pyfunction!(refusal, m)?)?;
     m.add_function(wrap_pyfunction!(strategies, m)?)?;
     m.add_function(wrap_pyfunction!(simulate, m)?)?;
     m.add_function(wrap_pyfunction!(sweep_seeds, m)?)?;

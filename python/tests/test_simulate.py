@@ -115,7 +115,7 @@ def test_bad_values_raise_the_cli_s_value_error(drive_bench, tmp_path):
         (dict(config={"motor": {"resistance_ohm": -1.0}}), ["`motor.resistance_ohm` = -1", "must be"]),
         (dict(config={"motr": {"x": 1}}), ["motr"]),
         (dict(duration_s=0.0), ["`duration_s` = 0", "must be > 0"]),
-        (dict(speed_rpm=float("nan")), ["`speed_rpm` = nan", "finite"]),
+        (dict(speed_rpm=float("nan")), ["`speed_rpm` = NaN (rule: must be finite)"]),
         (dict(load_nm=-1.0), ["load.coulomb_nm", "-1"]),
         (dict(seed=-1), ["`seed` = -1", "whole number"]),
         (dict(trace_every_us=0.001), ["`trace_every_us` = 0.001", "0.02"]),

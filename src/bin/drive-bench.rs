@@ -16,6 +16,10 @@ use clap::{Args, Parser, Subcommand};
 use std::io::{BufWriter, IsTerminal, Write};
 use std::path::{Path, PathBuf};
 
+#[path = "drive-bench/outputs.rs"]
+mod outputs;
+use outputs::Output;
+
 /// Compares sensorless commutation strategies on a simulated BLDC drive. Without a
 /// subcommand it runs the standard comparison and writes a report folder.
 #[derive(Parser)]
@@ -237,9 +241,7 @@ fn run(cli: Cli) -> Result<i32, String> {
             let mut cfg = load_config(config.as_deref())?;
             let plugin = apply(choose(&strategy, &plugins).map_err(|e| e.0)?, &mut cfg);
             cfg.validate().map_err(|e| e.to_string())?;
-            if let Some(p) = &json {
-                check_outputs(&[p.as_path()])?;
-            }
+            check_outputs(json.iter().map(|p| Output::file("--json", p)))?;
             let mut found = Vec::new();
             // The two meters' searches side by side.
             let meters = [range::Meter::WIDE, range::Meter::AS_PUBLISHED];
@@ -282,9 +284,7 @@ fn run(cli: Cli) -> Result<i32, String> {
         }
         Some(Cmd::CalibrateLm { config, json }) => {
             let cfg = load_config(config.as_deref())?;
-            if let Some(p) = &json {
-                check_outputs(&[p.as_path()])?;
-            }
+            check_outputs(json.iter().map(|p| Output::file("--json", p)))?;
             calibrate_lm(&cfg, json.as_deref())
         }
         Some(Cmd::Sweep {
@@ -320,12 +320,10 @@ fn run(cli: Cli) -> Result<i32, String> {
             json,
         }) => {
             let cfg = load_config(config.as_deref())?;
-            let outputs: Vec<&Path> = out
-                .iter()
-                .chain(json.iter())
-                .map(PathBuf::as_path)
-                .collect();
-            check_outputs(&outputs)?;
+            check_outputs(
+                (out.iter().map(|p| Output::file("--write", p)))
+                    .chain(json.iter().map(|p| Output::file("--json", p))),
+            )?;
             let to_rpm = match to_rpm {
                 Some(r) => r,
                 None => {
@@ -385,8 +383,9 @@ fn compare(a: CompareArgs, plugins: Vec<PluginLibrary>) -> Result<(), String> {
     let threads = a.threads.map_or_else(pool::default_threads, usize::from);
     // The report folder is made before minutes of work, not after.
     let out = a.out.unwrap_or_else(|| PathBuf::from("drive-bench-report"));
-    std::fs::create_dir_all(&out).map_err(|e| format!("{}: {e}", out.display()))?;
-    check_outputs(&[out.join("report.md").as_path()])?;
+    let folder = Output::folder("--out", &out);
+    let report = folder.inside("report.md");
+    check_outputs([folder, report])?;
     let mut variants = bench::standard_variants(&cfg.strategy);
     variants.extend(
         plugins
@@ -418,14 +417,9 @@ fn sensitivity(config: Option<&Path>, out: &Path, threads: Option<u16>) -> Resul
     let studied = sensitivity::strategies(&cfg.strategy, &sensitivity::STRATEGIES);
     // Every level's config checked before anything is made or run.
     sensitivity::jobs(&cfg, &studied).map_err(|e| e.to_string())?;
-    if out.is_file() {
-        return Err(format!(
-            "--out {}: is a file (rule: a folder)",
-            out.display()
-        ));
-    }
-    std::fs::create_dir_all(out).map_err(|e| format!("--out {}: {e}", out.display()))?;
-    check_outputs(&[out.join("report.md").as_path()])?;
+    let folder = Output::folder("--out", out);
+    let report = folder.inside("report.md");
+    check_outputs([folder, report])?;
     let wall = std::time::Instant::now();
     let points = sensitivity::study(&cfg, &studied, threads, std::io::stderr().is_terminal())?;
     let labels: Vec<String> = studied.into_iter().map(|s| s.0).collect();
@@ -481,15 +475,18 @@ fn run_one(a: RunArgs, plugins: &[PluginLibrary]) -> Result<i32, String> {
             ));
         }
     }
-    let outputs: Vec<&Path> = a.trace.iter().chain(&a.json).map(|p| p.as_path()).collect();
-    check_outputs(&outputs)?;
-    if let Some(d) = &a.plot {
-        std::fs::create_dir_all(d).map_err(|e| format!("{}: {e}", d.display()))?;
-        check_outputs(&[
-            d.join("overview.svg").as_path(),
-            d.join("zoom.svg").as_path(),
-        ])?;
-    }
+    let plot = a.plot.iter().map(|d| Output::folder("--plot", d));
+    let plot: Vec<Output> = plot
+        .flat_map(|f| {
+            let files = [f.inside("overview.svg"), f.inside("zoom.svg")];
+            std::iter::once(f).chain(files)
+        })
+        .collect();
+    check_outputs(
+        (a.trace.iter().map(|p| Output::file("--trace", p)))
+            .chain(a.json.iter().map(|p| Output::file("--json", p)))
+            .chain(plot),
+    )?;
     let mut trace = match &a.trace {
         Some(p) => {
             let f = std::fs::File::create(p).map_err(|e| format!("{}: {e}", p.display()))?;
@@ -580,8 +577,10 @@ fn run_sweep(
     let mut cases = sweep::parse(&text).map_err(|e| named(e.0))?;
     sweep::resolve_paths(&mut cases, file.parent().unwrap_or(Path::new("")));
     let scenarios = sweep::scenarios(&cases, plugins).map_err(|e| named(e.0))?;
-    let outputs: Vec<&Path> = csv.iter().chain(&json).map(|p| p.as_path()).collect();
-    check_outputs(&outputs)?;
+    check_outputs(
+        (csv.iter().map(|p| Output::file("--csv", p)))
+            .chain(json.iter().map(|p| Output::file("--json", p))),
+    )?;
     let threads = threads.map_or_else(pool::default_threads, usize::from);
     let index: Vec<usize> = (0..cases.len()).collect();
     let rows = pool::map(&index, threads, Some("sweep"), |&k| {
@@ -682,38 +681,9 @@ fn human_bytes(b: u64) -> String {
     }
 }
 
-/// Each output must be a writable file path whose folder exists: found out before the
-/// run, not after it.
-fn check_outputs(paths: &[&Path]) -> Result<(), String> {
-    for (k, p) in paths.iter().enumerate() {
-        if paths[..k].contains(p) {
-            return Err(format!(
-                "{}: given twice (rule: each output its own file)",
-                p.display()
-            ));
-        }
-        if p.is_dir() {
-            return Err(format!("{}: is a folder (rule: a file path)", p.display()));
-        }
-        let dir = match p.parent() {
-            Some(d) if !d.as_os_str().is_empty() => d,
-            _ => Path::new("."),
-        };
-        if !dir.is_dir() {
-            return Err(format!(
-                "{}: folder {} does not exist (rule: create it first)",
-                p.display(),
-                dir.display()
-            ));
-        }
-        let meta = std::fs::metadata(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
-        if meta.permissions().readonly()
-            || std::fs::metadata(p).is_ok_and(|m| m.permissions().readonly())
-        {
-            return Err(format!("{}: not writable", p.display()));
-        }
-    }
-    Ok(())
+/// Checks every output of a command by the one rule of [`outputs::check`].
+fn check_outputs(outputs: impl IntoIterator<Item = Output>) -> Result<(), String> {
+    outputs::check(&outputs.into_iter().collect::<Vec<_>>())
 }
 
 fn to_json<T: serde::Serialize>(v: &T) -> Result<String, String> {

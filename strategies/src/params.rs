@@ -43,11 +43,14 @@ pub struct ControlParams {
     /// Current command limit: output and integrator saturation of the speed PI \[A\].
     /// Default 0.25. It must stay below the current sense's full scale (0.5 A with the
     /// default sensing: the amplifier clips at 10 V), or a clipped reading can never exceed
-    /// the command and the current loop stops limiting. Rule: 0 < x ≤ 10.
+    /// the command and the current loop stops limiting. Rule: 0 < x ≤ 10, at least
+    /// `start_current_a` and below the full scale, min(`sensing.current.amplifier_max_v`,
+    /// `sensing.current.adc_full_scale_v`)/(`sensing.current.amplifier_gain` ×
+    /// `power_stage.shunt_ohm`): with the other defaults at least 0.15 and below 0.5.
     pub current_limit_a: f64,
     /// Current command from the hand-over until the first FG speed measurement \[A\]: the
     /// speed PI has nothing to act on before it. Default 0.15. Rule: 0 < x ≤
-    /// `current_limit_a`. Too much and the shifter, which times each commutation from the
+    /// `current_limit_a` (with the other defaults at most 0.25). Too much and the shifter, which times each commutation from the
     /// previous 60° interval, falls behind a rotor accelerating from near standstill.
     pub start_current_a: f64,
     /// Back-calculation anti-windup on the current PI (the chip's). Default true.
@@ -323,7 +326,10 @@ impl ControlParams {
             return Err(ParamError::new(
                 "control.start_current_a",
                 self.start_current_a,
-                "must be in (0, control.current_limit_a] A",
+                format!(
+                    "must be in (0, control.current_limit_a] A, control.current_limit_a = {}",
+                    self.current_limit_a
+                ),
             ));
         }
         check_range(
@@ -642,12 +648,14 @@ pub struct StrategyParams {
     /// ωM: speed from which `lm` uses the full window \[rpm\]. Default 12941: from
     /// `drive-bench calibrate-lm` on the built-in motor, where a 14° window keeps
     /// synchronism up to the top speed 12 V allows, so the full window is never needed
-    /// below it and ωM is that top speed. Rule: > ωm, ≤ 16383.
+    /// below it and ωM is that top speed. Rule: > ωm (with the other defaults at least 1524),
+    /// ≤ 16383.
     pub lm_speed_max_rpm: u32,
     /// ωm: speed at and below which `lm` uses a 1° window \[rpm\]. Default 1523: from
     /// `drive-bench calibrate-lm` on the built-in motor, the lowest speed a 1° window holds
     /// (below it the drive runs above the command, driven by the window's full-voltage
-    /// time, which lasts until the detected crossing). Rule: < ωM.
+    /// time, which lasts until the detected crossing). Rule: < ωM (with the other defaults at
+    /// most 12940).
     pub lm_speed_min_rpm: u32,
     /// Flip-flops of the digital filter (3 in the chip), clocked at 0.64 µs. Default 3.
     /// Rule: 1..=64.
@@ -726,7 +734,10 @@ impl StrategyParams {
             return Err(ParamError::new(
                 "strategy.lm_speed_max_rpm",
                 self.lm_speed_max_rpm,
-                "must be greater than strategy.lm_speed_min_rpm (ωM > ωm)",
+                format!(
+                    "must be greater than strategy.lm_speed_min_rpm = {} (ωM > ωm)",
+                    self.lm_speed_min_rpm
+                ),
             ));
         }
         check_range(

@@ -101,6 +101,35 @@ mod tests {
         assert_eq!(c, d);
     }
 
+    /// The phrase of a description whose declared bound holds only with other keys
+    /// changed: "with the other defaults at least X" (`at least`/`above` for the min,
+    /// `at most`/`below` for the max), then the rule with every key it combines.
+    const TIED: &str = "with the other defaults";
+
+    /// `key` as a whole key in `text` (not the start or end of a longer one).
+    fn names_key(text: &str, key: &str) -> bool {
+        text.match_indices(key).any(|(i, _)| {
+            let before = text[..i].chars().next_back();
+            let after = text[i + key.len()..].chars().next();
+            !before.is_some_and(|c| c.is_alphanumeric() || c == '_' || c == '.')
+                && !after.is_some_and(|c| c.is_alphanumeric() || c == '_')
+        })
+    }
+
+    /// The first of `phrases` after [`TIED`] in `description`, and the number after it.
+    fn tied_limit<'a>(description: &str, phrases: [&'a str; 2]) -> Option<(&'a str, f64)> {
+        let rest = &description[description.find(TIED)? + TIED.len()..];
+        let (at, phrase) = phrases
+            .iter()
+            .filter_map(|p| rest.find(&format!(" {p} ")).map(|i| (i, *p)))
+            .min()?;
+        let number: String = rest[at + phrase.len() + 2..]
+            .chars()
+            .take_while(|c| c.is_ascii_digit() || matches!(c, '.' | 'e' | '-' | '+'))
+            .collect();
+        Some((phrase, number.trim_end_matches('.').parse().ok()?))
+    }
+
     #[test]
     fn the_declared_ranges_are_the_config_rules() {
         // Guards the table against drifting from the rules (the rules are the authority):
@@ -108,30 +137,13 @@ mod tests {
         // itself must pass (FMI bounds are inclusive: a `> 0` rule is declared with the
         // smallest positive f64, `< 180` with the largest f64 below 180). A step is a
         // millionth for a Real, one for an Integer (two for the poles, which come in pairs).
-        // Bounds that a rule ties to another field (at its default) are only checked outside.
-        let tied = [
-            ("strategy.lm_speed_max_rpm", "min"), // > strategy.lm_speed_min_rpm
-            ("strategy.lm_speed_min_rpm", "max"), // < strategy.lm_speed_max_rpm
-            ("control.start_current_a", "max"),   // <= control.current_limit_a
-            ("control.current_limit_a", "min"),   // >= control.start_current_a
-            ("motor.mutual_inductance_h", "max"), // < motor.self_inductance_h
-            ("motor.self_inductance_h", "min"),   // > motor.mutual_inductance_h
-            // The speed's step: max_step·(Bm + Tc/ω0)/J <= 2.
-            ("motor.inertia_kgm2", "min"),
-            ("motor.viscous_friction_nms", "max"),
-            ("motor.coulomb_friction_nm", "max"),
-            ("motor.coulomb_speed_rad_s", "min"),
-            // The coupled mode: max_step·max(k/√(L·J), k²/(R·J)) <= 2.
-            ("motor.flux_linkage_wb", "max"),
-            ("motor.resistance_ohm", "min"),
-            // The current limit below the current sense's full scale:
-            // min(amplifier swing, ADC range)/(gain·shunt) > control.current_limit_a.
-            ("control.current_limit_a", "max"),
-            ("power_stage.shunt_ohm", "max"),
-            ("sensing.current.amplifier_gain", "max"),
-            ("sensing.current.amplifier_max_v", "min"),
-            ("sensing.current.adc_full_scale_v", "min"),
-        ];
+        //
+        // A bound that a rule combining several keys refuses with the other keys at their
+        // defaults (the coupling, the speed's step, the current sense's full scale, an
+        // ordering) stays declared (other values make it valid), but its description must
+        // say so: "with the other defaults at least X" (or at most, above, below), X the
+        // limit the rules set with the defaults (checked here), and every other key the
+        // refusal names.
         for v in table() {
             let Role::Parameter { set, .. } = v.role else {
                 continue;
@@ -148,14 +160,56 @@ mod tests {
                 } else {
                     1.0
                 };
-                let ok = |x: f64| {
+                let refusal = |x: f64| {
                     let mut c = DriveConfig::default();
-                    set(&mut c, x).is_ok() && c.validate().is_ok()
+                    set(&mut c, x).and_then(|()| c.validate()).err()
                 };
+                let ok = |x: f64| refusal(x).is_none();
                 let outside = b + outward * step;
                 assert!(!ok(outside), "{} = {outside} was accepted", v.name);
-                if !tied.contains(&(v.name, which)) {
-                    assert!(ok(b), "{} = {b}, its declared {which}, was refused", v.name);
+                let Some(e) = refusal(b) else { continue };
+                let (inclusive, strict) = if which == "min" {
+                    ("at least", "above")
+                } else {
+                    ("at most", "below")
+                };
+                let d = v.description;
+                let Some((phrase, x)) = tied_limit(d, [inclusive, strict]) else {
+                    panic!(
+                        "{} = {b}, its declared {which}, is refused with the other defaults \
+                         ({e}), and its description does not say \"{TIED} {inclusive} …\" \
+                         or \"{TIED} {strict} …\": {d}",
+                        v.name
+                    );
+                };
+                // X, rounded inward if at all, and a step beyond it are on the two sides.
+                let beyond = if v.kind == Kind::Real {
+                    0.01 * x.abs()
+                } else {
+                    1.0
+                };
+                let (accepted, refused) = if phrase == inclusive {
+                    (x, x + outward * beyond)
+                } else {
+                    (x - outward * beyond, x)
+                };
+                assert!(
+                    ok(accepted) && !ok(refused),
+                    "{}: \"{TIED} {phrase} {x}\" is not what the rules say ({accepted} \
+                     must be accepted, {refused} refused)",
+                    v.name
+                );
+                let msg = e.to_string();
+                for other in table() {
+                    if other.name != v.name && names_key(&msg, other.name) {
+                        assert!(
+                            names_key(d, other.name),
+                            "{} = {b} is refused by a rule naming {} ({msg}); the \
+                             description must name it too: {d}",
+                            v.name,
+                            other.name
+                        );
+                    }
                 }
             }
         }

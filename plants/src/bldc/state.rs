@@ -137,9 +137,7 @@ impl Persist for BldcPlant {
         r.field("gates", &mut self.gates)?;
         r.field("modes", &mut self.modes)?;
         r.field("load", &mut self.load)?;
-        self.load
-            .validate()
-            .map_err(|e| format!("{} = {} (rule: {})", e.field, e.value, e.rule))?;
+        self.load.validate().map_err(|e| e.to_string())?;
         r.field("speed_lock", &mut self.speed_lock)?;
         r.field("start", &mut self.start)?;
         r.field("same_instant_events", &mut self.same_instant_events)?;
