@@ -272,6 +272,18 @@ fn list_and_config_print_what_the_other_commands_accept() {
     assert!(out.status.success());
     let cfg = DriveConfig::from_toml(&text(&out.stdout)).expect("the printed config parses");
     assert_eq!(cfg, DriveConfig::default());
+    // Every key with its unit and bounds as a comment: `key = value  # [unit] rule: ...`.
+    let printed = text(&out.stdout);
+    let keys: Vec<&str> = printed.lines().filter(|l| l.contains(" = ")).collect();
+    assert!(keys.len() >= 80, "{printed}");
+    for l in keys {
+        let comment = l
+            .split_once("  # [")
+            .map(|c| c.1)
+            .unwrap_or_else(|| panic!("{l}"));
+        assert!(!comment.starts_with("?]") && comment.contains("]"), "{l}");
+    }
+    assert!(printed.contains("resistance_ohm = 2.2  # [Ohm] 0.0001..=1000: Phase resistance R"));
 }
 
 #[test]

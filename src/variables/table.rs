@@ -3,11 +3,11 @@
 
 use super::variable::Kind::{Boolean, Integer, Real};
 use super::variable::{EnumType, Input, Kind, Output, Role, Text, Variable, strategy_choices};
-use bldc_drive::DriveConfig;
-use bldc_drive::drive_core::ParamError;
-use bldc_drive::drive_core::pwm::PwmSchemeKind;
-use bldc_drive::strategies::StrategyName;
-use bldc_drive::strategies::params::SPEED_CMD_MAX_RPM;
+use crate::DriveConfig;
+use crate::drive_core::ParamError;
+use crate::drive_core::pwm::PwmSchemeKind;
+use crate::strategies::StrategyName;
+use crate::strategies::params::SPEED_CMD_MAX_RPM;
 
 pub(super) fn get_strategy(c: &DriveConfig) -> f64 {
     let s = &c.strategy;
