@@ -87,6 +87,9 @@ for ex in "startup_montecarlo.py --samples 1 --duration-s 1.0" "speed_load_grid.
     # shellcheck disable=SC2086 # the example's options are split on purpose
     "$venv/bin/python" python/examples/$ex --out "target/python-${ex%%.py*}.png" >/dev/null
 done
+# Every python block of README.md and python/README.md, saved and run as a script.
+stage "README python snippets"
+"$venv/bin/python" scripts/readme_snippets.py
 stage "python: pytest"
 DRIVE_BENCH="${CARGO_TARGET_DIR:-target}/debug/drive-bench" "$venv/bin/python" -m pytest -q python/tests
 stage "done"

@@ -66,6 +66,12 @@ impl DriveConfig {
         toml::to_string(self).unwrap_or_default()
     }
 
+    /// [`DriveConfig::to_toml`] with each key's unit, bounds and meaning as a comment,
+    /// from the variable table ([`crate::variables`]): what `drive-bench config` prints.
+    pub fn to_toml_documented(&self) -> String {
+        crate::variables::documented::to_toml_documented(self)
+    }
+
     /// The config as a JSON object: the keys and values of [`DriveConfig::to_toml`].
     pub fn to_json(&self) -> String {
         // Through a TOML table, so that an absent option is left out rather than null.

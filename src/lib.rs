@@ -17,6 +17,7 @@ pub mod scenario;
 pub mod scenario_file;
 pub mod sweep;
 pub mod tune;
+pub mod variables;
 pub mod verdict;
 
 pub use config::{ConfigError, DriveConfig};

@@ -104,6 +104,16 @@ fn calibration_follows_the_motor() {
     // More flux means more back-EMF per rpm: the same voltages give lower speeds.
     assert!(b.min_rpm < a.min_rpm, "ωm {} vs {}", b.min_rpm, a.min_rpm);
     assert!(b.max_rpm < a.max_rpm, "ωM {} vs {}", b.max_rpm, a.max_rpm);
+    // The shipped LM speeds are what the calibration finds for the built-in motor (the
+    // documented procedure: rerun `drive-bench calibrate-lm` and paste its lines when
+    // the drive changes).
+    let shipped = &builtin.strategy;
+    assert_eq!(
+        (shipped.lm_speed_min_rpm, shipped.lm_speed_max_rpm),
+        (a.min_rpm, a.max_rpm),
+        "shipped ωm, ωM against calibrate-lm's: paste `{}`",
+        a.toml_lines().replace('\n', " ")
+    );
     // The calibrated values pass the config's own rules.
     a.apply(&builtin).unwrap();
     b.apply(&second).unwrap();

@@ -272,6 +272,18 @@ fn list_and_config_print_what_the_other_commands_accept() {
     assert!(out.status.success());
     let cfg = DriveConfig::from_toml(&text(&out.stdout)).expect("the printed config parses");
     assert_eq!(cfg, DriveConfig::default());
+    // Every key with its unit and bounds as a comment: `key = value  # [unit] rule: ...`.
+    let printed = text(&out.stdout);
+    let keys: Vec<&str> = printed.lines().filter(|l| l.contains(" = ")).collect();
+    assert!(keys.len() >= 80, "{printed}");
+    for l in keys {
+        let comment = l
+            .split_once("  # [")
+            .map(|c| c.1)
+            .unwrap_or_else(|| panic!("{l}"));
+        assert!(!comment.starts_with("?]") && comment.contains("]"), "{l}");
+    }
+    assert!(printed.contains("resistance_ohm = 2.2  # [Ohm] 0.0001..=1000: Phase resistance R"));
 }
 
 #[test]
@@ -320,6 +332,37 @@ fn the_quick_comparison_writes_the_report_folder() {
         "{linked}"
     );
     assert!(!html.contains("<img") && !html.contains("src=\"http"));
+    // Each figure once: every SVG written is shown exactly once in report.md and once
+    // in report.html (they were shown twice, doubling the page).
+    let svgs: Vec<String> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().into_string().unwrap())
+        .filter(|f| f.ends_with(".svg"))
+        .collect();
+    assert!(svgs.len() >= 5, "{svgs:?}");
+    for f in &svgs {
+        assert_eq!(
+            md.matches(&format!("]({f})")).count(),
+            1,
+            "{f} in report.md"
+        );
+    }
+    assert_eq!(html.matches("<figure><svg").count(), svgs.len());
+    // The summary is a table (not a preformatted block), one row per strategy.
+    let summary = &md[md.find("## Summary").unwrap()..md.find("## Results").unwrap()];
+    assert!(!summary.contains("```"), "{summary}");
+    assert!(
+        summary.contains("| strategy | min rpm | max rpm |"),
+        "{summary}"
+    );
+    assert_eq!(
+        summary
+            .lines()
+            .filter(|l| l.starts_with("| twelve-step-") || l.starts_with("| six-step-"))
+            .count(),
+        7,
+        "{summary}"
+    );
     // Nothing searched, nothing drawn: --quick writes no empty range figure.
     assert!(!dir.join("speed_range.svg").exists());
     // Every results.csv column is defined in the report, in the CSV's order.

@@ -200,6 +200,30 @@ fn a_panic_in_step_stops_the_run_with_an_error_not_a_crash() {
     );
 }
 
+/// A deliberate panic is reported as the host's error and not printed: the plugin's std
+/// (its own, in the cdylib) writes to stderr past the harness's capture, so the test above
+/// runs in a child process whose stderr is read.
+#[test]
+fn a_deliberate_plugin_panic_prints_nothing() {
+    let out = std::process::Command::new(std::env::current_exe().unwrap())
+        .args([
+            "--exact",
+            "a_panic_in_step_stops_the_run_with_an_error_not_a_crash",
+            "--nocapture",
+        ])
+        .output()
+        .unwrap();
+    let (stdout, stderr) = (
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr),
+    );
+    assert!(
+        out.status.success() && stdout.contains("1 passed"),
+        "{stdout}\n{stderr}"
+    );
+    assert!(!stderr.contains("panicked"), "{stderr}");
+}
+
 #[test]
 fn a_panic_in_planned_change_stops_the_run_with_an_error_naming_it() {
     let err = with_mode("plan-panic", || {

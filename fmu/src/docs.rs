@@ -10,7 +10,7 @@ use std::fmt::Write;
 pub fn variables_markdown() -> String {
     let mut x = String::from(
         "# FMU variables\n\n\
-         <!-- Generated from fmu/src/variables/table.rs by `cargo xtask fmu-docs`; do not edit. -->\n\n\
+         <!-- Generated from src/variables/table.rs by `cargo xtask fmu-docs`; do not edit. -->\n\n\
          Every variable of `BldcDrive.fmu`, in value-reference order, as `modelDescription.xml`\n\
          declares it. Bounds are inclusive (FMI); a rule `> 0` is declared with the smallest\n\
          positive double, `< 180` with the largest double below 180. Values outside the bounds\n\

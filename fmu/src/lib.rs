@@ -14,5 +14,6 @@ pub mod exports;
 pub mod ffi;
 pub mod model;
 pub mod state;
-pub mod variables;
+/// The variable table, kept in the library (`drive-bench config` reads it too).
+pub use bldc_drive::variables;
 pub mod xml;

@@ -4,6 +4,7 @@
 //! table sortable by clicking a column's header (numbers by value, the rest as text), and
 //! nothing fetched from a network: no external style, script or font.
 
+use crate::verdict::Verdict;
 use pulldown_cmark::{Options, Parser, html};
 
 /// The page for `markdown`, whose images named in `figures` (file name, SVG text) are
@@ -14,6 +15,7 @@ pub fn page(title: &str, markdown: &str, figures: &[(String, String)]) -> String
     for (name, svg) in figures {
         body = inline_image(&body, name, svg);
     }
+    let body = fold_long_cells(&body);
     format!(
         "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n<title>{}</title>\n<style>{STYLE}</style>\n</head>\n<body>\n{body}<script>{SORT}</script>\n</body>\n</html>\n",
         escape(title)
@@ -38,6 +40,115 @@ fn inline_image(html: &str, name: &str, svg: &str) -> String {
     out
 }
 
+/// Cells whose text runs past this many characters are folded (a failure's reason is
+/// several lines in a narrow column).
+const FOLD_CHARS: usize = 80;
+
+/// `html` with the long cells of each failed run's row folded into a `<details>`: its
+/// summary is the cell up to its first bold part (a verdict) or its first words, the rest
+/// opens on a click. A row is a failed run's when a cell shows a verdict other than
+/// `running` in bold or italics; other long cells (definitions, spectra) stay open.
+fn fold_long_cells(html: &str) -> String {
+    let mut out = String::with_capacity(html.len());
+    let mut rest = html;
+    while let Some(at) = rest.find("<tr>") {
+        let Some(end) = rest[at..].find("</tr>").map(|e| at + e) else {
+            break;
+        };
+        out.push_str(&rest[..at]);
+        let row = &rest[at..end];
+        if failed(row) {
+            out.push_str(&fold_row(row));
+        } else {
+            out.push_str(row);
+        }
+        rest = &rest[end..];
+    }
+    out.push_str(rest);
+    out
+}
+
+/// Whether `row` shows a failing verdict, as the report marks one: `**lost-sync**` or
+/// `*off-speed*`.
+fn failed(row: &str) -> bool {
+    Verdict::ALL
+        .iter()
+        .filter(|v| **v != Verdict::Running)
+        .any(|v| {
+            let v = v.as_str();
+            row.contains(&format!("<strong>{v}</strong>")) || row.contains(&format!("<em>{v}</em>"))
+        })
+}
+
+/// `row` with each of its long cells folded.
+fn fold_row(row: &str) -> String {
+    let mut out = String::with_capacity(row.len() + 64);
+    let mut rest = row;
+    while let Some(at) = rest.find("<td") {
+        let Some(open) = rest[at..].find('>').map(|e| at + e + 1) else {
+            break;
+        };
+        let Some(close) = rest[open..].find("</td>").map(|e| open + e) else {
+            break;
+        };
+        out.push_str(&rest[..open]);
+        out.push_str(&fold(&rest[open..close]));
+        rest = &rest[close..];
+    }
+    out.push_str(rest);
+    out
+}
+
+/// One cell's content, folded when long.
+fn fold(cell: &str) -> String {
+    if text_len(cell) <= FOLD_CHARS {
+        return cell.to_string();
+    }
+    let (split, more) = match cell.find("</strong>") {
+        Some(e) if e < FOLD_CHARS * 2 => (e + "</strong>".len(), ""),
+        _ => (word_break(cell, FOLD_CHARS / 2), " …"),
+    };
+    let (head, tail) = cell.split_at(split);
+    let tail = tail.trim_start_matches(':').trim_start();
+    format!("<details><summary>{head}{more}</summary>{tail}</details>")
+}
+
+/// Characters of text in `html` (tags not counted).
+fn text_len(html: &str) -> usize {
+    let mut in_tag = false;
+    html.chars()
+        .filter(|&c| {
+            match c {
+                '<' => in_tag = true,
+                '>' if in_tag => {
+                    in_tag = false;
+                    return false;
+                }
+                _ => {}
+            }
+            !in_tag
+        })
+        .count()
+}
+
+/// The byte offset of the last space outside a tag within the first `max` characters of
+/// text (the cell's length if there is none).
+fn word_break(html: &str, max: usize) -> usize {
+    let (mut in_tag, mut seen, mut best) = (false, 0, None);
+    for (i, c) in html.char_indices() {
+        match c {
+            '<' => in_tag = true,
+            '>' if in_tag => in_tag = false,
+            ' ' if !in_tag && seen <= max => best = Some(i),
+            _ => {}
+        }
+        if !in_tag && c != '>' {
+            seen += 1;
+        }
+    }
+    best.unwrap_or(html.len())
+}
+
 fn escape(s: &str) -> String {
     s.replace('&', "&amp;")
         .replace('<', "&lt;")
@@ -52,7 +163,8 @@ th.asc::after{content:' \\25B2'}th.desc::after{content:' \\25BC'}\
 tr:nth-child(even) td{background:#fafafa}\
 pre{background:#f6f6f6;padding:0.8em;overflow-x:auto;font-size:0.85em}\
 code{background:#f3f3f3;padding:0 0.2em}\
-figure{margin:1em 0;overflow-x:auto}figure svg{max-width:100%;height:auto}";
+figure{margin:1em 0;overflow-x:auto}figure svg{max-width:100%;height:auto}\
+details summary{cursor:pointer}";
 
 /// Click a header to sort its table by that column; click again to reverse. Cells that
 /// read as numbers (a leading sign, digits, a decimal point, an exponent) sort by value
@@ -103,6 +215,30 @@ mod tests {
         for fetch in ["src=\"http", "href=\"http", "<link", "@import", "url("] {
             assert!(!p.contains(fetch), "{fetch}");
         }
+    }
+
+    #[test]
+    fn a_failed_runs_long_cells_fold_and_other_cells_stay() {
+        let reason = "in synchronism, true mean 512.5 rpm against the 492 rpm command (+4.1 %, tolerance ±2 %)";
+        let md = format!(
+            "| s | verdict | why |\n|---|---|---|\n| a | **off-speed**: {reason} | – |\n| b | *lost-sync* | {reason} |\n| c | running | {reason} |\n"
+        );
+        let p = page("t", &md, &[]);
+        // Behind the verdict when the cell has one; else behind its first words.
+        assert!(
+            p.contains(&format!(
+                "<td><details><summary><strong>off-speed</strong></summary>{reason}</details></td>"
+            )),
+            "{p}"
+        );
+        assert!(
+            p.contains("<td><details><summary>in synchronism, true mean 512.5 rpm …</summary>against the 492"),
+            "{p}"
+        );
+        // A running row's long cell, and short cells, stay as they are.
+        assert!(p.contains(&format!("<td>{reason}</td>")), "{p}");
+        assert!(p.contains("<td><em>lost-sync</em></td>"), "{p}");
+        assert_eq!(p.matches("<details>").count(), 2);
     }
 
     /// The sorting script, run by Node.js on a minimal stand-in for the page's DOM: a

@@ -2,6 +2,7 @@
 //! same scenarios. The `drive-bench` binary is a thin front end over this module.
 
 pub mod calibrate;
+pub mod decimate;
 pub mod drift;
 pub mod html;
 pub mod pool;

@@ -68,76 +68,89 @@ fn opt(v: Option<f64>, scale: f64, decimals: usize) -> String {
     v.map_or("–".to_string(), |x| format!("{:.decimals$}", x * scale))
 }
 
-/// The compact table printed to the terminal.
-pub fn terminal_table(c: &Comparison) -> String {
-    let mut s = String::new();
+/// The summary's columns: (name, unit or second header line).
+const SUMMARY_COLUMNS: [(&str, &str); 10] = [
+    ("strategy", ""),
+    ("min", "rpm"),
+    ("max", "rpm"),
+    ("grid", "ok"),
+    ("err@{trace} °", "mean / max"),
+    ("ripple", "rpm"),
+    ("T ripple", "mN·m"),
+    ("I rms", "A"),
+    ("full duty ms", "AW on / off"),
+    ("load dip rpm", "/ recovery s"),
+];
+
+/// The summary's header, its rows (one per variant) and the note under it: one source for
+/// the terminal's fixed-width table and the report's Markdown table.
+fn summary(c: &Comparison) -> (Vec<(String, &'static str)>, Vec<[String; 10]>, String) {
     let trace_rpm = c.plan.trace_rpm;
-    let _ = writeln!(
-        s,
-        "{:<22} {:>7} {:>7} {:>5} {:>13} {:>9} {:>9} {:>7} {:>13} {:>13}",
-        "strategy",
-        "min",
-        "max",
-        "grid",
-        format!("err@{trace_rpm:.0} °"),
-        "ripple",
-        "T ripple",
-        "I rms",
-        "full duty ms",
-        "load dip rpm"
+    let head = SUMMARY_COLUMNS
+        .iter()
+        .map(|&(n, u)| (n.replace("{trace}", &format!("{trace_rpm:.0}")), u))
+        .collect();
+    let rows = c
+        .variants
+        .iter()
+        .map(|v| summary_row(c, &v.label))
+        .collect();
+    let note = format!(
+        "grid ok: speeds of {:?} rpm held within 2 % without restart; err/ripple/I at {trace_rpm:.0} rpm; full duty ms: how long the voltage command stays at >= 95 % of the carrier after the step down from beyond reach, anti-windup on the current PI / off; load dip: the deepest speed drop and the time back within 2 % after a {:.1} mN·m load at {:.0} rpm",
+        c.plan.grid_rpm,
+        c.plan.load.1 * 1e3,
+        c.plan.load.0
     );
-    let _ = writeln!(
-        s,
-        "{:<22} {:>7} {:>7} {:>5} {:>13} {:>9} {:>9} {:>7} {:>13} {:>13}",
-        "", "rpm", "rpm", "ok", "mean / max", "rpm", "mN·m", "A", "AW on / off", "/ recovery s"
-    );
-    for v in &c.variants {
-        let range = c
-            .ranges
+    (head, rows, note)
+}
+
+fn summary_row(c: &Comparison, label: &str) -> [String; 10] {
+    let trace_rpm = c.plan.trace_rpm;
+    let range = c
+        .ranges
+        .iter()
+        .find(|r| r.strategy == label && r.meter == c.plan.meter.label);
+    let grid: Vec<_> = c.grid.iter().filter(|g| g.variant == label).collect();
+    let ok = grid.iter().filter(|g| holds(&g.summary)).count();
+    let at_any = grid.iter().find(|g| g.summary.speed_ref_rpm == trace_rpm);
+    // A failed run's figures are not a measurement: its verdict stands in their place.
+    let at = at_any.filter(|g| holds(&g.summary));
+    let failed = at_any
+        .filter(|g| !holds(&g.summary))
+        .map(|g| g.summary.verdict.as_str().to_string());
+    // The release of a saturated voltage command: the first case stepping down.
+    let release = c.plan.step.cases.iter().position(|k| k.is_step_down());
+    let step = |aw: AntiWindup| {
+        c.steps
             .iter()
-            .find(|r| r.strategy == v.label && r.meter == c.plan.meter.label);
-        let grid: Vec<_> = c.grid.iter().filter(|g| g.variant == v.label).collect();
-        let ok = grid.iter().filter(|g| holds(&g.summary)).count();
-        let at_any = grid.iter().find(|g| g.summary.speed_ref_rpm == trace_rpm);
-        // A failed run's figures are not a measurement: its verdict stands in their place.
-        let at = at_any.filter(|g| holds(&g.summary));
-        let failed = at_any
-            .filter(|g| !holds(&g.summary))
-            .map(|g| g.summary.verdict.as_str().to_string());
-        // The release of a saturated voltage command: the first case stepping down.
-        let release = c.plan.step.cases.iter().position(|k| k.is_step_down());
-        let step = |aw: AntiWindup| {
-            c.steps
-                .iter()
-                .find(|x| x.variant == v.label && Some(x.case) == release && x.anti_windup == aw)
-                .map_or("–".into(), |x| {
-                    format!("{:.0}", x.full_duty_after_s * 1e3)
-                })
-        };
-        let load = c.loads.iter().find(|l| l.variant == v.label);
-        let _ = writeln!(
-            s,
-            "{:<22} {:>7} {:>7} {:>5} {:>13} {:>9} {:>9} {:>7} {:>13} {:>13}",
-            v.label,
-            opt(range.and_then(|r| r.min_rpm), 1.0, 0),
-            opt(range.and_then(|r| r.max_rpm), 1.0, 0),
-            format!("{ok}/{}", grid.len()),
-            at.map_or(failed.unwrap_or("–".into()), |g| format!(
+            .find(|x| x.variant == label && Some(x.case) == release && x.anti_windup == aw)
+            .map_or("–".into(), |x| {
+                format!("{:.0}", x.full_duty_after_s * 1e3)
+            })
+    };
+    let load = c.loads.iter().find(|l| l.variant == label);
+    [
+        label.to_string(),
+        opt(range.and_then(|r| r.min_rpm), 1.0, 0),
+        opt(range.and_then(|r| r.max_rpm), 1.0, 0),
+        format!("{ok}/{}", grid.len()),
+        at.map_or(failed.unwrap_or("–".into()), |g| {
+            format!(
                 "{:+.1} / {:.1}",
                 g.summary.commutation_error_deg_mean, g.summary.commutation_error_deg_max
-            )),
-            at.map_or("–".into(), |g| format!(
-                "{:.1}",
-                g.summary.speed_ripple_rpm
-            )),
-            at.map_or("–".into(), |g| format!(
-                "{:.3}",
-                g.summary.torque_ripple_nm * 1e3
-            )),
-            at.map_or("–".into(), |g| format!("{:.3}", g.summary.current_rms_a)),
-            format!("{} / {}", step(AntiWindup::Current), step(AntiWindup::Off)),
-            // A drive that failed the load run has no dip to show: its verdict instead.
-            load.map_or("–".into(), |l| if l.verdict.in_sync() {
+            )
+        }),
+        at.map_or("–".into(), |g| {
+            format!("{:.1}", g.summary.speed_ripple_rpm)
+        }),
+        at.map_or("–".into(), |g| {
+            format!("{:.3}", g.summary.torque_ripple_nm * 1e3)
+        }),
+        at.map_or("–".into(), |g| format!("{:.3}", g.summary.current_rms_a)),
+        format!("{} / {}", step(AntiWindup::Current), step(AntiWindup::Off)),
+        // A drive that failed the load run has no dip to show: its verdict instead.
+        load.map_or("–".into(), |l| {
+            if l.verdict.in_sync() {
                 format!(
                     "{:.0} / {}",
                     l.response.dip,
@@ -145,17 +158,53 @@ pub fn terminal_table(c: &Comparison) -> String {
                 )
             } else {
                 l.verdict.as_str().to_string()
-            }),
-        );
+            }
+        }),
+    ]
+}
+
+/// The compact table printed to the terminal.
+pub fn terminal_table(c: &Comparison) -> String {
+    const WIDTHS: [usize; 10] = [22, 7, 7, 5, 13, 9, 9, 7, 13, 13];
+    let (head, rows, note) = summary(c);
+    let mut s = String::new();
+    let mut line = |cells: &mut dyn Iterator<Item = &str>| {
+        let mut l = String::new();
+        for (k, (cell, w)) in cells.zip(WIDTHS).enumerate() {
+            let _ = match k {
+                0 => write!(l, "{cell:<w$}"),
+                _ => write!(l, " {cell:>w$}"),
+            };
+        }
+        let _ = writeln!(s, "{}", l.trim_end());
+    };
+    line(&mut head.iter().map(|h| h.0.as_str()));
+    line(&mut head.iter().map(|h| h.1));
+    for r in &rows {
+        line(&mut r.iter().map(String::as_str));
     }
-    let _ = writeln!(
-        s,
-        "grid ok: speeds of {:?} rpm held within 2 % without restart; err/ripple/I at {trace_rpm:.0} rpm; full duty ms: how long the voltage command stays at >= 95 % of the carrier after the step down from beyond reach, anti-windup on the current PI / off; load dip: the deepest speed drop and the time back within 2 % after a {:.1} mN·m load at {:.0} rpm",
-        c.plan.grid_rpm,
-        c.plan.load.1 * 1e3,
-        c.plan.load.0
-    );
+    let _ = writeln!(s, "{note}");
     let _ = writeln!(s, "wall time {:.1} s on {} threads", c.wall_s, c.threads);
+    s
+}
+
+/// The summary as a Markdown table, its note under it.
+fn summary_markdown(c: &Comparison) -> String {
+    let (head, rows, note) = summary(c);
+    let mut s = String::from("|");
+    for (name, unit) in &head {
+        let _ = match *unit {
+            "" => write!(s, " {name} |"),
+            u => write!(s, " {name} {u} |"),
+        };
+    }
+    s.push_str("\n|---|");
+    s.push_str(&"---:|".repeat(head.len() - 1));
+    s.push('\n');
+    for r in &rows {
+        let _ = writeln!(s, "| {} |", r.join(" | "));
+    }
+    let _ = writeln!(s, "\n{note}.");
     s
 }
 
@@ -634,7 +683,7 @@ fn markdown(c: &Comparison, config: &DriveConfig, crossings: &[String]) -> Strin
         c.wall_s,
         c.threads
     );
-    let _ = writeln!(s, "## Summary\n\n```\n{}```\n", terminal_table(c));
+    let _ = writeln!(s, "## Summary\n\n{}", summary_markdown(c));
     s.push_str(&super::results::section(c));
     s.push_str(&metrics_reference(c.plan.grid_duration_s));
     let _ = writeln!(
@@ -783,16 +832,21 @@ fn markdown(c: &Comparison, config: &DriveConfig, crossings: &[String]) -> Strin
         &studied(c),
         config.sensing.seed,
     ));
-    let _ = writeln!(s, "\n## Plots\n");
-    for f in [
+    // Each figure once: those the chapters above did not show.
+    let rest: Vec<&str> = [
         "speed_step.svg",
         "load_step.svg",
         "ripple_vs_speed.svg",
         "phase_current.svg",
-    ] {
-        let _ = writeln!(s, "![{f}]({f})\n");
+    ]
+    .into_iter()
+    .chain(crossings.iter().map(String::as_str))
+    .filter(|f| !s.contains(&format!("]({f})")))
+    .collect();
+    if !rest.is_empty() {
+        let _ = writeln!(s, "\n## Plots\n");
     }
-    for f in crossings {
+    for f in rest {
         let _ = writeln!(s, "![{f}]({f})\n");
     }
     s

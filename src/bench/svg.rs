@@ -3,9 +3,10 @@
 //! Why not plotters: its SVG backend lays text out with a font library (the default `ttf`
 //! feature loads system fonts through font-kit, which a CI image or a user's machine may
 //! not have), and what these charts need beyond lines and axes would still be ours:
-//! decimation of long traces, step drawing of logic signals, colours fixed per strategy
+//! decimation of long traces to the pixels ([`super::decimate`]), step drawing of logic signals, colours fixed per strategy
 //! across charts, and labels that wrap. The SVG is inlined in report.html as it is written.
 
+use super::decimate::min_max_per_column;
 use std::fmt::Write;
 
 /// One line.
@@ -42,7 +43,6 @@ const LEFT: f64 = 80.0;
 const RIGHT: f64 = 290.0;
 const TOP: f64 = 40.0;
 const GAP: f64 = 30.0;
-const MAX_POINTS: usize = 4000;
 
 /// Characters of a y label that fit along a panel's height (≈ 7.5 px each at the default
 /// font size).
@@ -213,27 +213,19 @@ pub fn chart_marked(title: &str, x_label: &str, panels: &[Panel], marks: &[Vec<M
             let dash = series
                 .dash
                 .map_or(String::new(), |d| format!(r#" stroke-dasharray="{d}""#));
-            let stride = series.points.len().div_ceil(MAX_POINTS).max(1);
-            let mut d = String::new();
-            let mut prev_y = None;
+            // One column a pixel of the plot's width: the file's weight is what the eye sees.
+            let points = min_max_per_column(&series.points, x0, x1, pw as usize);
             let mut drawn = Vec::new();
-            for &(x, y) in series.points.iter().step_by(stride) {
-                if !(x.is_finite() && y.is_finite()) {
-                    continue;
+            for &(x, y) in &points {
+                // A step holds the previous level up to the new point's x.
+                if series.steps
+                    && let Some(&(_, y0)) = drawn.last()
+                {
+                    drawn.push((px(x), y0));
                 }
                 drawn.push((px(x), py(y)));
-                if prev_y.is_none() {
-                    let _ = write!(d, "M{:.1},{:.1}", px(x), py(y));
-                } else {
-                    if series.steps
-                        && let Some(py0) = prev_y
-                    {
-                        let _ = write!(d, " L{:.1},{:.1}", px(x), py0);
-                    }
-                    let _ = write!(d, " L{:.1},{:.1}", px(x), py(y));
-                }
-                prev_y = Some(py(y));
             }
+            let d = path_data(&drawn);
             let _ = writeln!(
                 s,
                 r#"<path d="{d}" fill="none" stroke="{color}" stroke-width="1.3"{dash}/>"#
@@ -269,6 +261,44 @@ pub fn chart_marked(title: &str, x_label: &str, panels: &[Panel], marks: &[Vec<M
     s
 }
 
+/// SVG path data through `points` (pixels): the first absolute, the others relative to
+/// the one before, to 0.1 px, without leading zeros: "M80.0,40.0 l.5,-1.2 1,3". The
+/// offsets come from the rounded positions, so rounding does not accumulate.
+fn path_data(points: &[(f64, f64)]) -> String {
+    let tenths = |v: f64| (v * 10.0).round() as i64;
+    let mut d = String::new();
+    let mut prev: Option<(i64, i64)> = None;
+    for (k, &(x, y)) in points.iter().enumerate() {
+        let p = (tenths(x), tenths(y));
+        match prev {
+            None => {
+                let _ = write!(d, "M{:.1},{:.1}", p.0 as f64 / 10.0, p.1 as f64 / 10.0);
+            }
+            // One `l` for them all: SVG repeats the last command for further pairs.
+            Some(q) => {
+                let l = if k == 1 { "l" } else { "" };
+                let _ = write!(d, " {l}{},{}", short(p.0 - q.0), short(p.1 - q.1));
+            }
+        }
+        prev = Some(p);
+    }
+    d
+}
+
+/// `tenths` / 10 in the fewest characters: "3", "-1.2", ".5", "-.5".
+fn short(tenths: i64) -> String {
+    let (sign, a) = if tenths < 0 {
+        ("-", -tenths)
+    } else {
+        ("", tenths)
+    };
+    match (a / 10, a % 10) {
+        (i, 0) => format!("{sign}{i}"),
+        (0, f) => format!("{sign}.{f}"),
+        (i, f) => format!("{sign}{i}.{f}"),
+    }
+}
+
 pub(crate) fn fmt_tick(v: f64, step: f64) -> String {
     let decimals = (-step.log10().floor()).max(0.0) as usize;
     let v = if v.abs() < step * 1e-6 { 0.0 } else { v }; // no "-0"
@@ -278,6 +308,37 @@ pub(crate) fn fmt_tick(v: f64, step: f64) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Relative offsets from rounded positions: the path ends where the points end, to
+    /// 0.1 px, however many there are.
+    #[test]
+    fn path_data_is_relative_short_and_does_not_drift() {
+        assert_eq!(
+            path_data(&[(80.0, 40.0), (80.5, 38.8), (81.5, 41.8), (81.54, 41.8)]),
+            "M80.0,40.0 l.5,-1.2 1,3 0,0"
+        );
+        assert_eq!(short(-5), "-.5");
+        assert_eq!(short(-12), "-1.2");
+        let pts: Vec<(f64, f64)> = (0..=1000)
+            .map(|k| (k as f64 * 0.33, 100.0 + k as f64 * 0.07))
+            .collect();
+        let d = path_data(&pts);
+        let sum = |i: usize| -> f64 {
+            d.split(' ')
+                .skip(1)
+                .map(|p| {
+                    p.trim_start_matches('l')
+                        .split(',')
+                        .nth(i)
+                        .unwrap()
+                        .parse::<f64>()
+                        .unwrap()
+                })
+                .sum()
+        };
+        assert!((0.0 + sum(0) - 330.0).abs() < 0.051, "{}", sum(0));
+        assert!((100.0 + sum(1) - 170.0).abs() < 0.051, "{}", sum(1));
+    }
 
     #[test]
     fn ticks_are_round_numbers() {

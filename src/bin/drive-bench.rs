@@ -143,7 +143,8 @@ enum Cmd {
     },
     /// Lists the strategies.
     List,
-    /// Prints the default config (every key, documented in the crate docs).
+    /// Prints the default config as TOML, every key with its unit, bounds and meaning as a
+    /// comment (the FMU's variable table; the rules in full: the crate docs).
     Config,
 }
 
@@ -363,7 +364,7 @@ fn run(cli: Cli) -> Result<i32, String> {
             Ok(0)
         }
         Some(Cmd::Config) => {
-            print!("{}", DriveConfig::default().to_toml());
+            print!("{}", DriveConfig::default().to_toml_documented());
             Ok(0)
         }
     }

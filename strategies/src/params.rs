@@ -645,17 +645,17 @@ pub struct StrategyParams {
     /// Linear-region window θZC before each expected crossing [whole electrical degrees]
     /// (`nd`; the upper end of `lm`). Default 15. Rule: 1..=60.
     pub linear_region_deg: u32,
-    /// ωM: speed from which `lm` uses the full window \[rpm\]. Default 12941: from
+    /// ωM: speed from which `lm` uses the full window \[rpm\]. Default 13414: from
     /// `drive-bench calibrate-lm` on the built-in motor, where a 14° window keeps
     /// synchronism up to the top speed 12 V allows, so the full window is never needed
-    /// below it and ωM is that top speed. Rule: > ωm (with the other defaults at least 1524),
+    /// below it and ωM is that top speed. Rule: > ωm (with the other defaults at least 505),
     /// ≤ 16383.
     pub lm_speed_max_rpm: u32,
-    /// ωm: speed at and below which `lm` uses a 1° window \[rpm\]. Default 1523: from
+    /// ωm: speed at and below which `lm` uses a 1° window \[rpm\]. Default 504: from
     /// `drive-bench calibrate-lm` on the built-in motor, the lowest speed a 1° window holds
     /// (below it the drive runs above the command, driven by the window's full-voltage
     /// time, which lasts until the detected crossing). Rule: < ωM (with the other defaults at
-    /// most 12940).
+    /// most 13413).
     pub lm_speed_min_rpm: u32,
     /// Flip-flops of the digital filter (3 in the chip), clocked at 0.64 µs. Default 3.
     /// Rule: 1..=64.
@@ -679,8 +679,8 @@ impl Default for StrategyParams {
             guard: None,
             conduction_angle_deg: None,
             linear_region_deg: 15,
-            lm_speed_max_rpm: 12941,
-            lm_speed_min_rpm: 1523,
+            lm_speed_max_rpm: 13414,
+            lm_speed_min_rpm: 504,
             filter_samples: 3,
             lm_window_capped: true,
         }

@@ -19,6 +19,30 @@ fn mode() -> String {
     std::env::var("BLDC_TEST_MISBEHAVE").unwrap_or_default()
 }
 
+/// The text every panic this fixture means to raise begins with.
+const DELIBERATE: &str = "deliberate panic";
+
+/// Keeps the fixture's deliberate panics off stderr (the host reports each as an error,
+/// and the tests check that), handing every other panic to the hook it replaces. The
+/// hook is this cdylib's own std's: the host's panics, and those of any other test, are
+/// not affected.
+fn quiet_deliberate_panics() {
+    static ONCE: std::sync::Once = std::sync::Once::new();
+    ONCE.call_once(|| {
+        let previous = std::panic::take_hook();
+        std::panic::set_hook(Box::new(move |info| {
+            let p = info.payload();
+            let text = p
+                .downcast_ref::<&str>()
+                .copied()
+                .or_else(|| p.downcast_ref::<String>().map(String::as_str));
+            if !text.is_some_and(|t| t.starts_with(DELIBERATE)) {
+                previous(info);
+            }
+        }));
+    });
+}
+
 #[derive(Clone)]
 struct Misbehaving {
     mode: String,
@@ -26,6 +50,7 @@ struct Misbehaving {
 
 impl Plugin for Misbehaving {
     fn create(_config: &str, _info: &DriveInfo) -> Result<Self, String> {
+        quiet_deliberate_panics();
         let mode = mode();
         if mode == "create-error" {
             return Err("create-error requested by BLDC_TEST_MISBEHAVE".into());
@@ -49,7 +74,7 @@ impl Plugin for Misbehaving {
         };
         if now >= 64_000 {
             match self.mode.as_str() {
-                "panic" => panic!("deliberate panic at tick {now}"),
+                "panic" => panic!("{DELIBERATE} at tick {now}"),
                 "shoot-through" => c.legs = [LEG_HIGH | LEG_LOW, LEG_LOW, 0],
                 _ => {}
             }
@@ -58,14 +83,14 @@ impl Plugin for Misbehaving {
     }
     fn save(&self) -> Result<Vec<u8>, String> {
         match self.mode.as_str() {
-            "save-panic" => panic!("deliberate panic in save"),
+            "save-panic" => panic!("{DELIBERATE} in save"),
             "save-huge" => Ok(vec![0; strategy_abi::MAX_STATE_BYTES + 1]),
             _ => Ok(b"ok".to_vec()),
         }
     }
     fn planned_change(&self) -> Option<(u64, [u8; 3])> {
         match self.mode.as_str() {
-            "plan-panic" => panic!("deliberate panic in planned_change"),
+            "plan-panic" => panic!("{DELIBERATE} in planned_change"),
             "plan-garbage" => Some((u64::MAX - 1, [LEG_HIGH | LEG_LOW, 7, 0])),
             "plan-past" => Some((0, [LEG_HIGH, LEG_LOW, 0])),
             _ => None,
@@ -73,7 +98,7 @@ impl Plugin for Misbehaving {
     }
     fn restore(&mut self, state: &[u8]) -> Result<(), String> {
         match self.mode.as_str() {
-            "restore-panic" => panic!("deliberate panic in restore"),
+            "restore-panic" => panic!("{DELIBERATE} in restore"),
             _ if state == b"ok" => Ok(()),
             _ => Err(format!(
                 "{} bytes that are not a state of this plugin",

@@ -2,11 +2,11 @@
 //! its value comes from, its unit, description and declared range; and the items of the
 //! model's enumerations.
 
-use bldc_drive::DriveConfig;
-use bldc_drive::drive_core::ParamError;
-use bldc_drive::drive_core::pwm::PwmSchemeKind;
-use bldc_drive::strategies::{GuardKind, StrategyName};
-use bldc_drive::verdict::Verdict;
+use crate::DriveConfig;
+use crate::drive_core::ParamError;
+use crate::drive_core::pwm::PwmSchemeKind;
+use crate::strategies::{GuardKind, StrategyName};
+use crate::verdict::Verdict;
 
 /// Reads a value from a config (as the f64 every variable is stored as).
 pub type Getter = fn(&DriveConfig) -> f64;

@@ -1,14 +1,18 @@
-//! The variable table: every FMU variable, its value reference (its index here), type,
-//! unit, description, range, and where it lives in [`DriveConfig`](bldc_drive::DriveConfig)
-//! or the running drive.
+//! The variable table: every variable of the drive's FMU, its value reference (its index
+//! here), type, unit, description, range, and where it lives in
+//! [`DriveConfig`](crate::DriveConfig) or the running drive.
 //!
-//! It is the one source of truth: the exported functions look values up here, and
-//! `modelDescription.xml` and the GUID are generated from it ([`crate::xml`]). Start
-//! values of parameters are read from `DriveConfig::default()`, never written twice.
+//! It is the one source of truth: the FMU's exported functions look values up here, its
+//! `modelDescription.xml` and GUID are generated from it (the `fmu` crate), and
+//! `drive-bench config` writes each key's unit and rule from it
+//! ([`DriveConfig::to_toml_documented`](crate::DriveConfig::to_toml_documented)). It lives
+//! in the library, not in the `fmu` crate, so that both can read it. Start values of
+//! parameters are read from `DriveConfig::default()`, never written twice.
 //!
 //! One direction: `variable` says what a variable is, `table` writes the rows with it, and
 //! this module serves the rows; neither of the two imports from here.
 
+pub mod documented;
 mod table;
 mod variable;
 
@@ -41,7 +45,7 @@ pub fn vr_of(name: &str) -> Option<u32> {
 mod tests {
     use super::table::{get_strategy, set_strategy};
     use super::*;
-    use bldc_drive::DriveConfig;
+    use crate::DriveConfig;
 
     #[test]
     fn names_are_unique_and_inputs_outputs_are_the_issues_names() {

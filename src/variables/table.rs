@@ -3,11 +3,11 @@
 
 use super::variable::Kind::{Boolean, Integer, Real};
 use super::variable::{EnumType, Input, Kind, Output, Role, Text, Variable, strategy_choices};
-use bldc_drive::DriveConfig;
-use bldc_drive::drive_core::ParamError;
-use bldc_drive::drive_core::pwm::PwmSchemeKind;
-use bldc_drive::strategies::StrategyName;
-use bldc_drive::strategies::params::SPEED_CMD_MAX_RPM;
+use crate::DriveConfig;
+use crate::drive_core::ParamError;
+use crate::drive_core::pwm::PwmSchemeKind;
+use crate::strategies::StrategyName;
+use crate::strategies::params::SPEED_CMD_MAX_RPM;
 
 pub(super) fn get_strategy(c: &DriveConfig) -> f64 {
     let s = &c.strategy;
@@ -225,9 +225,9 @@ fn strategy() -> Vec<Variable> {
         int!("strategy.linear_region_deg", strategy.linear_region_deg, Some(1.0), Some(60.0),
             "Linear-region window before each expected crossing (nd; upper end of lm) [electrical degrees]"),
         int!("strategy.lm_speed_max_rpm", strategy.lm_speed_max_rpm, Z, Some(SPEED_CMD_MAX_RPM),
-            "ωM: speed from which lm uses the full window [rpm]; must exceed strategy.lm_speed_min_rpm: with the other defaults at least 1524"),
+            "ωM: speed from which lm uses the full window [rpm]; must exceed strategy.lm_speed_min_rpm: with the other defaults at least 505"),
         int!("strategy.lm_speed_min_rpm", strategy.lm_speed_min_rpm, Z, Some(SPEED_CMD_MAX_RPM - 1.0),
-            "ωm: speed at and below which lm uses a 1° window [rpm]; must be below strategy.lm_speed_max_rpm: with the other defaults at most 12940"),
+            "ωm: speed at and below which lm uses a 1° window [rpm]; must be below strategy.lm_speed_max_rpm: with the other defaults at most 13413"),
         int!("strategy.filter_samples", strategy.filter_samples, Some(1.0), Some(64.0),
             "Flip-flops of the digital filter, clocked at 0.64 µs [count]"),
     ]
