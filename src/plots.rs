@@ -290,12 +290,14 @@ mod tests {
             // Every series drew a line through many points.
             let lines = svg.matches("<path d=\"M").count();
             assert!(lines >= 6, "{name}: {lines}");
+            // Points of the longest path (relative moves, space-separated): thinned to at
+            // most two per pixel column of the 630 px plot, at least one per column.
             let longest = svg
                 .split("<path d=\"")
                 .skip(1)
-                .map(|p| p.matches(" L").count())
+                .map(|p| p.split('"').next().unwrap_or("").split(' ').count())
                 .max();
-            assert!(longest.unwrap_or(0) > 1000, "{name}");
+            assert!(longest.unwrap_or(0) > 600, "{name}: {longest:?}");
             assert!(!svg.contains("NaN"), "{name}");
         }
         // 3000 rpm, 6 pole pairs: a turn is 3.33 ms, the zoom 10 ms.

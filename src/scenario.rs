@@ -486,6 +486,9 @@ pub struct Outcome {
     pub speed: Vec<(f64, f64)>,
     /// Duty (voltage command / carrier top) at the same instants: (t \[s\], 0..1).
     pub duty: Vec<(f64, f64)>,
+    /// The controller's current command (the speed PI's output) at the same instants:
+    /// (t \[s\], A).
+    pub current_ref: Vec<(f64, f64)>,
 }
 
 /// Why a scenario could not run.
@@ -559,6 +562,7 @@ pub fn run_observed(
             .map_or(0, |p| (sc.duration_s / p) as usize + 2),
     );
     let mut duty = Vec::with_capacity(record.capacity());
+    let mut current_ref = Vec::with_capacity(record.capacity());
     let record_every = sc.speed_record_s.unwrap_or(f64::INFINITY);
     let top = f64::from(eng.carrier().top);
     let mut next_record = if sc.speed_record_s.is_some() {
@@ -654,6 +658,7 @@ pub fn run_observed(
                     if recorded {
                         record.push((t, o.speed_rpm));
                         duty.push((t, f64::from(s.duty) / top));
+                        current_ref.push((t, s.current_ref_a));
                         next_record = t + record_every;
                     }
                     if steady {
@@ -791,6 +796,7 @@ pub fn run_observed(
         },
         speed: record,
         duty,
+        current_ref,
     })
 }
 

@@ -29,11 +29,12 @@
 //! other ending of a 0 command is judged as before (a drive that keeps turning is
 //! `off-speed` or `lost-sync`, one that restarted `lost-sync`).
 //!
-//! A window can only judge a drive that has finished starting. After `gave-up` and
-//! before `not-started`, a run is `unsettled` (not judged) when its window began before
-//! the first hand-over to closed loop with no restart before it (the run ended while the
-//! first start-up was still on its planned course), or when, with a constant command
-//! over the window, the true speed (low-passed over [`SETTLE_TAU_S`], sampled every
+//! A window can only judge a drive that has finished starting and settling. After
+//! `gave-up` and before `not-started`, a run is `unsettled` (not judged) when its window
+//! began before the first hand-over to closed loop with no restart before it (the run
+//! ended while the first start-up was still on its planned course); and after `lost-sync`
+//! and before `off-speed` (a drive in synchronism), when, with a constant command over
+//! the window, the true speed (low-passed over [`SETTLE_TAU_S`], sampled every
 //! [`SETTLE_SAMPLE_S`], to see through the commutation ripple) was outside the
 //! tolerance only in the window's first half and inside from then to the end: it was
 //! still settling there. A speed that leaves the tolerance in the second half is not
@@ -567,7 +568,8 @@ impl Witness {
                 ),
             );
         }
-        if let Some(j) = self.unsettled(end) {
+        // (The speed's settling is judged below, once the drive is known in synchronism.)
+        if let Some(j) = self.in_start_up() {
             return j;
         }
         if self.started_at_s.is_none() {
@@ -628,6 +630,9 @@ impl Witness {
                 ),
             );
         }
+        if let Some(j) = self.settling(end) {
+            return j;
+        }
         // A command below 1 rpm is judged against 1 rpm (no stopped verdict yet).
         let off = (mean - cmd) / cmd.max(1.0);
         if off.abs() > r.speed_tolerance {
@@ -653,50 +658,58 @@ impl Witness {
 }
 
 impl Witness {
-    /// The `unsettled` verdict, when the window judged a drive still starting (see the
-    /// module doc).
-    fn unsettled(&self, end: &Ending) -> Option<Judgement> {
+    /// The `unsettled` verdict of a window that began before the first hand-over (see
+    /// the module doc).
+    fn in_start_up(&self) -> Option<Judgement> {
         let w0 = self.window_from_s?;
-        let first_start = match self.handover {
-            None => Some((
+        let (why, from) = match self.handover {
+            None => (
                 "the run ended before the first hand-over to closed loop".to_string(),
                 w0,
-            )),
-            Some((t, 0)) if t > w0 => Some((
+            ),
+            Some((t, 0)) if t > w0 => (
                 format!("the first hand-over to closed loop came at {t:.3} s"),
                 t,
-            )),
-            _ => None,
+            ),
+            _ => return None,
         };
-        let (why, from) = match first_start {
-            Some(x) => x,
-            None => {
-                let s = &self.settle;
-                let settled = s.last_off_s?;
-                let end_s = s.last?.0;
-                // Off only in the window's first half, and inside since: settling.
-                if s.command_moved || s.off_now || settled > (w0 + end_s) / 2.0 {
-                    return None;
-                }
-                (
-                    format!(
-                        "the true speed (low-passed over {:.0} ms) came within ±{:.0} % of the {:.0} rpm command only at {settled:.3} s",
-                        SETTLE_TAU_S * 1e3,
-                        100.0 * self.rule.speed_tolerance,
-                        end.command_rpm
-                    ),
-                    settled,
-                )
-            }
-        };
-        Some(Judgement {
+        Some(Self::not_judged(
+            format!("the steady-state window began at {w0:.3} s, inside the start-up: {why}"),
+            from,
+        ))
+    }
+
+    /// The `unsettled` verdict of a drive in synchronism whose speed was still settling
+    /// into its tolerance in the window's first half (see the module doc).
+    fn settling(&self, end: &Ending) -> Option<Judgement> {
+        let w0 = self.window_from_s?;
+        let s = &self.settle;
+        let settled = s.last_off_s?;
+        let end_s = s.last?.0;
+        // Off only in the window's first half, and inside since: settling.
+        if s.command_moved || s.off_now || settled > (w0 + end_s) / 2.0 {
+            return None;
+        }
+        Some(Self::not_judged(
+            format!(
+                "the steady-state window began at {w0:.3} s, before the speed settled: the true speed (low-passed over {:.0} ms) came within ±{:.0} % of the {:.0} rpm command only at {settled:.3} s",
+                SETTLE_TAU_S * 1e3,
+                100.0 * self.rule.speed_tolerance,
+                end.command_rpm
+            ),
+            settled,
+        ))
+    }
+
+    fn not_judged(why: String, from: f64) -> Judgement {
+        Judgement {
             verdict: Verdict::Unsettled,
             reason: format!(
-                "not judged: the steady-state window began at {w0:.3} s, inside the start-up: {why}; a hold of at least {:.2} s (its window the last third) begins its window after that",
+                "not judged: {why}; a hold of at least {:.2} s (its window the last third) begins its window after that",
                 shortest_hold_s(from)
             ),
             judge_after_s: Some(from),
-        })
+        }
     }
 }
 

@@ -484,7 +484,8 @@ fn finite_out_of_rule_values_in_the_dynamic_state_are_refused_naming_them() {
                             }
                             names.push(s.to_string());
                         }
-                        let said = normal(&e);
+                        // Keys are quoted (`key` = value): the path is read without them.
+                        let said = normal(&e).replace('`', "");
                         if !(said.contains("rule")
                             && names.iter().any(|n| said.contains(n.as_str())))
                         {

@@ -342,12 +342,19 @@ pub struct StepRun {
     pub response: StepResponse,
     /// Restarts during the run.
     pub restarts: u32,
-    /// The run's verdict at its end (figures of a run that lost the rotor are not shown
-    /// as a measurement; off-speed is the response still settling).
+    /// The run's verdict at its end (figures of a run that did not hold its command at
+    /// the end are not shown as a measurement).
     pub verdict: crate::verdict::Verdict,
     /// True speed record (t \[s\], rpm).
     #[serde(skip)]
     pub speed: Vec<(f64, f64)>,
+    /// The PIs' outputs at the same instants: the duty (current PI, 0..1) and the current
+    /// command (speed PI) \[A\].
+    #[serde(skip)]
+    pub duty: Vec<(f64, f64)>,
+    /// See `duty`.
+    #[serde(skip)]
+    pub current_ref: Vec<(f64, f64)>,
 }
 
 /// A start-up Monte-Carlo of one strategy (plugins are not sampled).
@@ -358,6 +365,8 @@ pub struct StartupResult {
     /// The speed command of every start \[rpm\]: 3000, or 6000 for ND, whose linear
     /// region alone drives the motor above ≈ 4700 rpm.
     pub command_rpm: f64,
+    /// Why the command differs from the others', when it does.
+    pub command_note: Option<&'static str>,
     /// The tolerances sampled.
     pub spread: startup::Spread,
     /// What came of it.
@@ -632,7 +641,11 @@ pub fn compare(
                 sc.speed_rpm = p.speed_rpm.clone();
                 sc.load.coulomb_nm = p.load_nm.clone();
                 sc.speed_record_s = Some(0.5e-3);
-                let out = run(&sc, |_| {})?;
+                // The verdict only says whether the drive holds its final command: judged
+                // over the last 0.5 s, after the response (measured from the record),
+                // and lengthened while that still falls in its settling.
+                sc.steady_from_s = p.duration_s - 0.5;
+                let (_, out) = settled(&sc, |sc| run(sc, |_| {}))?;
                 // The response starts from wherever the speed is at the event.
                 let from = out
                     .speed
@@ -668,6 +681,8 @@ pub fn compare(
                     restarts: out.summary.restarts,
                     verdict: out.summary.verdict,
                     speed: out.speed,
+                    duty: out.duty,
+                    current_ref: out.current_ref,
                 })
             }
             Job::Startup(v) => {
@@ -682,6 +697,9 @@ pub fn compare(
                 Done::Startup(StartupResult {
                     variant: label(v),
                     command_rpm: c.control.speed_ref_rpm,
+                    command_note: (c.strategy.name == StrategyName::TwelveStepNd).then_some(
+                        "ND's full-voltage window alone drives the motor above ≈ 4700 rpm",
+                    ),
                     spread: startup::Spread::default(),
                     stats: startup::monte_carlo(
                         &c,
@@ -702,7 +720,8 @@ pub fn compare(
                     ..LoadProfile::default()
                 };
                 sc.speed_record_s = Some(0.5e-3);
-                let out = run(&sc, |_| {})?;
+                // Lengthened while its window falls in the recovery.
+                let (_, out) = settled(&sc, |sc| run(sc, |_| {}))?;
                 Done::Load(LoadRun {
                     variant: label(v),
                     response: disturbance(&out.speed, at, rpm),
@@ -764,6 +783,8 @@ mod tests {
             restarts: 0,
             verdict: crate::verdict::Verdict::Running,
             speed: Vec::new(),
+            duty: Vec::new(),
+            current_ref: Vec::new(),
         }
     }
 

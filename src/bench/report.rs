@@ -2,7 +2,7 @@
 
 use super::range::holds;
 use super::svg::{Panel, Series, chart};
-use super::{AntiWindup, Comparison, CrossingTrace};
+use super::{AntiWindup, Comparison, CrossingTrace, StepRun};
 use crate::config::DriveConfig;
 use serde::Serialize;
 use std::fmt::Write as _;
@@ -150,7 +150,7 @@ fn summary_row(c: &Comparison, label: &str) -> [String; 10] {
         format!("{} / {}", step(AntiWindup::Current), step(AntiWindup::Off)),
         // A drive that failed the load run has no dip to show: its verdict instead.
         load.map_or("–".into(), |l| {
-            if l.verdict.in_sync() {
+            if l.verdict.is_running() {
                 format!(
                     "{:.0} / {}",
                     l.response.dip,
@@ -236,7 +236,7 @@ pub fn write_folder(
     put("results.json", json)?;
     put("results.csv", grid_csv(c))?;
     let mut figures = vec![
-        ("speed_step.svg".to_string(), speed_step_chart(c)),
+        ("speed_step.svg".to_string(), speed_step_chart(c, config)),
         ("load_step.svg".to_string(), load_step_chart(c)),
         ("ripple_vs_speed.svg".to_string(), ripple_chart(c)),
         ("phase_current.svg".to_string(), current_chart(c)),
@@ -454,45 +454,83 @@ fn grid_csv(c: &Comparison) -> String {
     String::from_utf8(w.into_inner().unwrap_or_default()).unwrap_or_default()
 }
 
-fn speed_step_chart(c: &Comparison) -> String {
-    let panels: Vec<Panel> = c
-        .plan
-        .step
-        .cases
-        .iter()
-        .enumerate()
-        .map(|(k, case)| {
-            let from = case
-                .load_nm
-                .points()
-                .iter()
-                .find(|l| l.1 != 0.0)
-                .map_or(case.at_s, |l| l.0.min(case.at_s))
-                - 0.5;
-            Panel {
-                y_label: format!("{} [rpm]", case.name),
-                series: c
-                    .steps
-                    .iter()
-                    .filter(|s| s.case == k)
-                    .map(|s| Series {
-                        name: format!("{}, anti-windup {}", s.variant, s.anti_windup.as_str()),
-                        points: s.speed.iter().copied().filter(|p| p.0 >= from).collect(),
-                        steps: false,
-                        // The strategy's colour; the anti-windup variant's dash.
-                        color: c.color_of(&s.variant),
-                        dash: match s.anti_windup {
-                            AntiWindup::Off => None,
-                            AntiWindup::Current => Some("6 3"),
-                            AntiWindup::Both => Some("2 2"),
-                        },
-                    })
-                    .collect(),
-            }
-        })
-        .collect();
+/// The anti-windup cases of one strategy (the last of the plan's, the chip's default):
+/// per case the command and the true speed, the speed PI's output (the current command)
+/// with its limit, and the current PI's (the duty) with full voltage, each with anti-windup
+/// off, on the current PI and on both, so that a PI sitting at its limit is seen.
+fn speed_step_chart(c: &Comparison, config: &DriveConfig) -> String {
+    let Some(strategy) = c.plan.step.variants.last() else {
+        return chart("Anti-windup: no case run", "time [s]", &[]);
+    };
+    let limit = config.control.current_limit_a;
+    let mut panels = Vec::new();
+    for (k, case) in c.plan.step.cases.iter().enumerate() {
+        let from = case
+            .load_nm
+            .points()
+            .iter()
+            .find(|l| l.1 != 0.0)
+            .map_or(case.at_s, |l| l.0.min(case.at_s))
+            - 0.5;
+        let runs: Vec<&StepRun> = c
+            .steps
+            .iter()
+            .filter(|s| s.case == k && &s.variant == strategy)
+            .collect();
+        let to = runs
+            .iter()
+            .filter_map(|s| s.speed.last().map(|p| p.0))
+            .fold(from, f64::max);
+        let after = |v: &[(f64, f64)]| v.iter().copied().filter(|p| p.0 >= from).collect();
+        // Anti-windup off, current PI, both: colours 0, 1, 2.
+        let per = |f: &dyn Fn(&StepRun) -> Vec<(f64, f64)>| -> Vec<Series> {
+            runs.iter()
+                .map(|s| Series {
+                    name: format!("anti-windup {}", s.anti_windup.as_str()),
+                    points: f(s),
+                    color: Some(s.anti_windup as usize),
+                    ..Series::default()
+                })
+                .collect()
+        };
+        let level = |name: &str, y: f64| Series {
+            name: name.into(),
+            points: vec![(from, y), (to, y)],
+            color: Some(7),
+            dash: Some("4 3"),
+            ..Series::default()
+        };
+        let command = Series {
+            name: "command".into(),
+            points: (0..=400)
+                .map(|i| from + (to - from) * f64::from(i) / 400.0)
+                .map(|t| (t, case.speed_rpm.value_at(t)))
+                .collect(),
+            steps: true,
+            color: Some(7),
+            ..Series::default()
+        };
+        let mut speed = vec![command];
+        speed.extend(per(&|s| after(&s.speed)));
+        panels.push(Panel {
+            y_label: format!("{}: speed [rpm]", case.name),
+            series: speed,
+        });
+        let mut current = per(&|s| after(&s.current_ref));
+        current.push(level("current limit", limit));
+        panels.push(Panel {
+            y_label: "current command (speed PI) [A]".into(),
+            series: current,
+        });
+        let mut duty = per(&|s| after(&s.duty));
+        duty.push(level("full voltage", 1.0));
+        panels.push(Panel {
+            y_label: "duty (current PI)".into(),
+            series: duty,
+        });
+    }
     chart(
-        "Anti-windup: off, on the current PI (the chip's), on both PIs",
+        &format!("Anti-windup, {strategy}: speed and both PIs' outputs against their limits"),
         "time [s]",
         &panels,
     )
@@ -579,8 +617,20 @@ fn current_chart(c: &Comparison) -> String {
                 points: t.rows.iter().map(|r| ((r.t_s - t0) * 1e3, f(r))).collect(),
                 ..Series::default()
             };
+            // A failed run's currents are not the strategy's: the panel says so.
+            let failed = c
+                .grid
+                .iter()
+                .find(|g| g.variant == t.variant && g.summary.speed_ref_rpm == c.plan.trace_rpm)
+                .filter(|g| !holds(&g.summary));
             Panel {
-                y_label: format!("{} [A]", t.variant),
+                y_label: match failed {
+                    Some(g) => format!(
+                        "{}: {}, not a measurement [A]",
+                        t.variant, g.summary.verdict
+                    ),
+                    None => format!("{} [A]", t.variant),
+                },
                 series: vec![
                     line("i_u", |r| r.i_u),
                     line("i_v", |r| r.i_v),
@@ -773,7 +823,7 @@ fn markdown(c: &Comparison, config: &DriveConfig, crossings: &[String]) -> Strin
             case.peak_pct_of()
         );
         for x in c.steps.iter().filter(|x| x.case == k) {
-            if !x.verdict.in_sync() {
+            if !x.verdict.is_running() {
                 let _ = writeln!(
                     s,
                     "| {} | {} | **{}** at the end | – | – | – | – | – | {} |",
@@ -807,7 +857,7 @@ fn markdown(c: &Comparison, config: &DriveConfig, crossings: &[String]) -> Strin
         c.plan.load.0
     );
     for x in &c.loads {
-        if !x.verdict.in_sync() {
+        if !x.verdict.is_running() {
             let _ = writeln!(
                 s,
                 "| {} | **{}** at the end | – | {} |",
@@ -887,11 +937,15 @@ fn startup_section(c: &Comparison, s: &mut String) {
                 )
             })
             .collect();
+        // A row run under other conditions says why on the row.
+        let command = match x.command_note {
+            Some(why) => format!("{:.0} ({why})", x.command_rpm),
+            None => format!("{:.0}", x.command_rpm),
+        };
         let _ = writeln!(
             s,
-            "| {} | {:.0} | {}/{} ({:.1} %) | {}/{} | {} | {} / {} | {} |",
+            "| {} | {command} | {}/{} ({:.1} %) | {}/{} | {} | {} / {} | {} |",
             x.variant,
-            x.command_rpm,
             st.successes,
             st.runs,
             100.0 * st.successes as f64 / st.runs.max(1) as f64,

@@ -4,7 +4,7 @@
 
 use super::range::{Limit, Range, holds};
 use super::svg::{Panel, Series, chart};
-use super::{AntiWindup, Comparison};
+use super::{AntiWindup, Comparison, StepRun};
 use crate::scenario::Summary;
 use std::fmt::Write as _;
 
@@ -180,7 +180,7 @@ fn anti_windup(c: &Comparison, s: &mut String) {
                     .iter()
                     .find(|x| x.case == k && &x.variant == v && x.anti_windup == aw)
                     .map_or("–".into(), |x| {
-                        if !x.verdict.in_sync() {
+                        if !x.verdict.is_running() {
                             return format!("*{}*", x.verdict);
                         }
                         format!(
@@ -214,16 +214,57 @@ fn anti_windup(c: &Comparison, s: &mut String) {
             };
             of(AntiWindup::Off) == of(AntiWindup::Current)
         });
+        let effect = if same {
+            "changes nothing: that PI never saturates here".to_string()
+        } else {
+            // Per strategy: the settling without and with it, and which way it moved.
+            let moved: Vec<String> = c
+                .plan
+                .step
+                .variants
+                .iter()
+                .filter_map(|v| {
+                    let of = |aw| {
+                        c.steps
+                            .iter()
+                            .find(|x| x.case == k && &x.variant == v && x.anti_windup == aw)
+                    };
+                    let (off, on) = (of(AntiWindup::Off)?, of(AntiWindup::Current)?);
+                    let settling = |x: &StepRun| {
+                        x.verdict
+                            .is_running()
+                            .then_some(x.response.settling_s)
+                            .flatten()
+                    };
+                    let says = |x: &StepRun| match settling(x) {
+                        Some(t) => format!("{t:.2} s"),
+                        None if x.verdict.is_running() => "not settled".into(),
+                        None => x.verdict.to_string(),
+                    };
+                    let way = match (settling(off), settling(on)) {
+                        (Some(a), Some(b)) if b < a => format!("won {:.2} s", a - b),
+                        (Some(a), Some(b)) if b > a => format!("lost {:.2} s", b - a),
+                        (Some(_), Some(_)) => "the same settling".into(),
+                        (Some(_), None) => "settling lost within the run".into(),
+                        (None, Some(_)) => "settling won within the run".into(),
+                        (None, None) => "settled in neither".into(),
+                    };
+                    Some(format!(
+                        "{v} settles in {} without it, {} with it ({way})",
+                        says(off),
+                        says(on)
+                    ))
+                })
+                .collect();
+            format!(
+                "acts: with it the current PI's integrator stops growing while the duty sits at full voltage, so after the step the duty leaves the limit as soon as the error reverses instead of first unwinding (the full-duty time in the summary): {}",
+                moved.join("; ")
+            )
+        };
         let _ = writeln!(
             s,
-            "\nFound for {}: the chip's anti-windup (current PI) {} ({}).",
-            case.name,
-            if same {
-                "changes nothing: that PI never saturates here"
-            } else {
-                "changes the response"
-            },
-            case.saturates
+            "\nFound for {}: the chip's anti-windup (current PI) {effect} ({}).",
+            case.name, case.saturates
         );
     }
 }
