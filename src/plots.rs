@@ -52,10 +52,7 @@ pub fn scenario_plots(sc: &Scenario, summary: &Summary) -> Result<Vec<(String, S
     let (from, to) = zoom_window(sc, lost);
     let rows = traced(sc, from, to, ZOOM_EVERY_S)?;
     let what = match lost {
-        Some((t, rpm)) => format!(
-            "the rotor lost at {t:.4} s, {rpm:.0} rpm (the first commutation beyond ±{:.0}° of the true angle)",
-            sc.verdict_rule.sync_error_deg
-        ),
+        Some((t, rpm)) => format!("rotor lost at {t:.4} s, {rpm:.0} rpm"),
         None => "the last electrical turns".to_string(),
     };
     let zoom_panels = zoom_panels(&rows);
@@ -76,11 +73,13 @@ pub fn scenario_plots(sc: &Scenario, summary: &Summary) -> Result<Vec<(String, S
     ])
 }
 
-/// Where a drive that failed lost its rotor: (t \[s\], true speed \[rpm\]).
+/// Where a drive that failed, or was stopped, lost its rotor: (t \[s\], true speed \[rpm\]).
 pub fn lost_at(summary: &Summary) -> Option<(f64, f64)> {
-    summary.sync_lost_at.filter(|_| {
-        !summary.verdict.is_success() && summary.verdict != crate::verdict::Verdict::Unsettled
-    })
+    use crate::verdict::Verdict;
+    // A stop is a success that passes through the loss on its way down: shown too.
+    summary
+        .sync_lost_at
+        .filter(|_| !matches!(summary.verdict, Verdict::Running | Verdict::Unsettled))
 }
 
 fn describe(sc: &Scenario) -> String {
@@ -119,8 +118,10 @@ fn binned(sc: &Scenario, bin: f64) -> Result<Vec<TraceRow>, RunError> {
     });
     let mut out = Vec::new();
     let (mut sum, mut n, mut k) = (TraceRow::default(), 0u32, 0u64);
+    // A bin cut short by the run's end would be a mean of a few PWM periods: dropped.
+    let full = (bin / every * 0.5).max(1.0) as u32;
     let close = |sum: &mut TraceRow, n: &mut u32, k: u64, out: &mut Vec<TraceRow>| {
-        if *n > 0 {
+        if *n >= full {
             let f = 1.0 / f64::from(*n);
             let mut r = *sum;
             for x in [
