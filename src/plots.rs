@@ -49,28 +49,41 @@ pub fn scenario_plots(sc: &Scenario, summary: &Summary) -> Result<Vec<(String, S
         &overview_panels,
         &vec![lost.map(|(t, _)| mark(t)).into_iter().collect::<Vec<_>>(); overview_panels.len()],
     );
-    let (from, to) = zoom_window(sc, lost);
-    let rows = traced(sc, from, to, ZOOM_EVERY_S)?;
-    let what = match lost {
-        Some((t, rpm)) => format!("rotor lost at {t:.4} s, {rpm:.0} rpm"),
-        None => "the last electrical turns".to_string(),
-    };
-    let zoom_panels = zoom_panels(&rows);
-    let zoom = chart_marked(
-        &format!("{title}: {what}, {:.1} ms", (to - from) * 1e3),
-        "time [ms]",
-        &zoom_panels,
-        &vec![
-            lost.map(|(t, _)| mark(t * 1e3))
-                .into_iter()
-                .collect::<Vec<_>>();
-            zoom_panels.len()
-        ],
-    );
+    let rows = zoom_rows(sc, lost)?;
+    let zoom = zoom_chart(&title, &rows, lost);
     Ok(vec![
         ("overview.svg".into(), overview),
         ("zoom.svg".into(), zoom),
     ])
+}
+
+/// The zoom's rows of `sc`: three electrical turns every microsecond (see
+/// [`zoom_chart`]), around `lost` (t \[s\], rpm) when given.
+pub fn zoom_rows(sc: &Scenario, lost: Option<(f64, f64)>) -> Result<Vec<TraceRow>, RunError> {
+    let (from, to) = zoom_window(sc, lost);
+    traced(sc, from, to, ZOOM_EVERY_S)
+}
+
+/// The zoom of `rows` under `title`: the speed (true and the chip's estimate), phase
+/// currents, terminal and neutral voltages, the state and the comparator before and
+/// after the guard, with the loss of the rotor `lost` (t \[s\], rpm) marked.
+pub fn zoom_chart(title: &str, rows: &[TraceRow], lost: Option<(f64, f64)>) -> String {
+    let span = rows.last().map_or(0.0, |r| r.t_s) - rows.first().map_or(0.0, |r| r.t_s);
+    let what = match lost {
+        Some((t, rpm)) => format!("rotor lost at {t:.4} s, {rpm:.0} rpm"),
+        None => "the last electrical turns".to_string(),
+    };
+    let panels = zoom_panels(rows);
+    let mark = lost.map(|(t, _)| Mark {
+        x: t * 1e3,
+        label: "rotor lost".into(),
+    });
+    chart_marked(
+        &format!("{title}: {what}, {:.1} ms", span * 1e3),
+        "time [ms]",
+        &panels,
+        &vec![mark.into_iter().collect::<Vec<_>>(); panels.len()],
+    )
 }
 
 /// Where a drive that failed, or was stopped, lost its rotor: (t \[s\], true speed \[rpm\]).
@@ -237,6 +250,13 @@ fn zoom_panels(rows: &[TraceRow]) -> Vec<Panel> {
     let ms = |r: &TraceRow| r.t_s * 1e3;
     let of = |f: fn(&TraceRow) -> f64| rows.iter().map(|r| (ms(r), f(r))).collect();
     vec![
+        Panel {
+            y_label: "speed [rpm]".into(),
+            series: vec![
+                line("true", of(|r| r.speed_rpm)),
+                steps("chip's estimate (FG)", of(|r| r.speed_est_rpm)),
+            ],
+        },
         Panel {
             y_label: "phase currents [A]".into(),
             series: vec![

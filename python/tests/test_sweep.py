@@ -64,7 +64,7 @@ def test_sweep_on_two_workers_equals_the_native_runs(cluster, drive_bench, tmp_p
             else:
                 assert got[key] == value, (k, key, got[key], value)
     assert frame["config.motor.resistance_ohm"][3] == 2.4
-    assert set(frame["verdict"]) <= {"running", "off-speed", "lost-sync", "stalled", "not-started", "gave-up", "non-finite"}
+    assert set(frame["verdict"]) <= {"running", "off-speed", "lost-sync", "stalled", "not-started", "gave-up", "non-finite", "stopped", "unsettled"}
     # drive-bench sweep, on threads, writes the same rows.
     file = tmp_path / "cases.json"
     file.write_text(json.dumps(CASES))

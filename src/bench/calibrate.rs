@@ -30,7 +30,7 @@
 use super::pool;
 use super::range::{self, FLOOR_RESOLUTION_RPM, Limit, Meter, RESOLUTION, SEARCH_MAX_RPM, SEEDS};
 use crate::config::DriveConfig;
-use crate::scenario::{RunError, Scenario, Summary, run};
+use crate::scenario::{RunError, Scenario, Summary, run, settled};
 use crate::verdict::Verdict;
 use drive_core::error::ParamError;
 use serde::Serialize;
@@ -279,7 +279,8 @@ impl Log {
 fn seed(config: &DriveConfig, crit: Criterion, log: &mut Log) -> Result<Seed, CalibrationError> {
     let mut last = String::new();
     for rpm in SEEDS {
-        let s = run(&Scenario::hold(config.clone(), rpm, TURN_S), |_| {})?.summary;
+        let sc = Scenario::hold(config.clone(), rpm, TURN_S);
+        let s = settled(&sc, |s| run(s, |_| {}))?.1.summary;
         let ok = crit.passes(s.verdict);
         log.push(None, rpm, &s, s.restarts, ok);
         if ok {
@@ -308,7 +309,8 @@ fn turned(
     crit: Criterion,
     log: &mut Log,
 ) -> Result<(bool, Limit, Summary), CalibrationError> {
-    let s = run(&range::turned(config, seed.rpm, rpm, TURN_S), |_| {})?.summary;
+    let sc = range::turned(config, seed.rpm, rpm, TURN_S);
+    let s = settled(&sc, |s| run(s, |_| {}))?.1.summary;
     let restarts = s.restarts.saturating_sub(seed.restarts);
     let ok = crit.passes(s.verdict) && restarts == 0;
     log.push(Some(seed.rpm), rpm, &s, restarts, ok);

@@ -4,6 +4,7 @@
 pub mod calibrate;
 pub mod decimate;
 pub mod drift;
+pub mod floors;
 pub mod html;
 pub mod pool;
 pub mod range;
@@ -439,6 +440,8 @@ pub struct Comparison {
     /// Crossing traces (not in the JSON; plotted).
     #[serde(skip)]
     pub crossings: Vec<CrossingTrace>,
+    /// The failed runs below the floors, traced where they lost the rotor.
+    pub floor_zooms: Vec<floors::FloorZoom>,
     /// Wall-clock time of the whole comparison \[s\].
     pub wall_s: f64,
     /// Threads used.
@@ -580,13 +583,18 @@ pub fn compare(
                 }
                 let mut sc = range::turned(&c, plan.trace_rpm, rpm, range::TURN_DOWN_S);
                 sc.plugin = variants[v].plugin.clone();
-                sc.trace = Some(TraceSpec {
-                    every_s: spectrum::TRACE_EVERY_S,
-                    from_s: sc.steady_from_s,
-                    to_s: sc.duration_s,
-                });
                 let mut samples = Vec::new();
-                let out = run(&sc, |r| samples.push(spectrum::sample(r)))?;
+                // Over the window, lengthened while that still falls in the settling.
+                let (_, out) = settled(&sc, |sc| {
+                    let mut sc = sc.clone();
+                    sc.trace = Some(TraceSpec {
+                        every_s: spectrum::TRACE_EVERY_S,
+                        from_s: sc.steady_from_s,
+                        to_s: sc.duration_s,
+                    });
+                    samples.clear();
+                    run(&sc, |r| samples.push(spectrum::sample(r)))
+                })?;
                 // A plugin's steps are not known here: its lines are named on twelve
                 // (a six-step plugin's commutation then reads "every 2 steps").
                 let steps = match variants[v].plugin {
@@ -744,6 +752,7 @@ pub fn compare(
         drifts: Vec::new(),
         sensitivity: Vec::new(),
         crossings: Vec::new(),
+        floor_zooms: Vec::new(),
         wall_s: 0.0,
         threads,
     };
@@ -761,6 +770,18 @@ pub fn compare(
             Done::Drift(x) => cmp.drifts.push(x),
             Done::Sensitivity(x) => cmp.sensitivity.push(x),
         }
+    }
+    // Below each floor (found above), the failed run again, traced where it failed.
+    let zooms = pool::map(&cmp.ranges, threads, None, |r| {
+        let Some(v) = cmp.variants.iter().find(|x| x.label == r.strategy) else {
+            return Ok(None);
+        };
+        let mut c = cmp.plan.meter.apply(base);
+        c.strategy = v.strategy.clone();
+        floors::zoom(&c, v.plugin.as_ref(), r)
+    });
+    for z in zooms {
+        cmp.floor_zooms.extend(z?);
     }
     cmp.wall_s = wall.elapsed().as_secs_f64();
     Ok(cmp)

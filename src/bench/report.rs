@@ -252,6 +252,7 @@ pub fn write_folder(
     if !c.drifts.is_empty() {
         figures.push((super::drift::CHART.to_string(), super::drift::chart(c)));
     }
+    figures.extend(super::floors::charts(&c.floor_zooms));
     figures.extend(tornado_charts(c));
     let mut crossing_files = Vec::new();
     for t in &c.crossings {

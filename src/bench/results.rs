@@ -128,6 +128,7 @@ fn speed_range(c: &Comparison, s: &mut String) {
             a.strategy, b.strategy
         );
     }
+    s.push_str(&super::floors::section(&c.floor_zooms));
 }
 
 fn top_speed(c: &Comparison, s: &mut String) {

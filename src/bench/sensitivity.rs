@@ -13,7 +13,7 @@
 use super::pool;
 use super::range::{self, Limit, Meter};
 use crate::config::DriveConfig;
-use crate::scenario::{RunError, run};
+use crate::scenario::{RunError, run, settled};
 use drive_core::error::ParamError;
 use serde::Serialize;
 use std::time::Instant;
@@ -310,7 +310,8 @@ pub fn run_job(job: &Job) -> Result<Point, RunError> {
         (None, Some(range::limit(SEED_RPM, &seed)))
     };
     let sc = range::turned(c, SEED_RPM, RIPPLE_RPM, range::TURN_DOWN_S);
-    let s = run(&sc, |_| {})?.summary;
+    // Lengthened while its window still falls in the settling, as the range search does.
+    let s = settled(&sc, |s| run(s, |_| {}))?.1.summary;
     runs += 1;
     sim_s += s.sim_s;
     let ripple_pct = s

@@ -195,7 +195,10 @@ pub fn start_once(config: &DriveConfig, sampled: Sampled) -> Result<StartRun, Ru
         .map(|q| q.0)
         .fold(0.0, f64::max);
     let mean = s.speed_mean_rpm;
-    let in_sync = s.verdict.in_sync();
+    // A speed still settling in the window (`unsettled` after the hand-over) is in
+    // synchronism: the 5 % band below judges it.
+    let in_sync = s.verdict.in_sync()
+        || (s.verdict == Verdict::Unsettled && s.handover_s.is_some_and(|h| h < steady_from));
     let started = in_sync && s.restarts == 0 && (mean - command).abs() <= TOLERANCE * command;
     Ok(StartRun {
         sampled,
