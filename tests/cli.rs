@@ -756,6 +756,11 @@ fn a_run_too_short_for_its_window_is_not_judged_and_names_the_start_up() {
         said.contains(&format!("hand-over to closed loop came at {align:.3} s")),
         "{said}"
     );
+    // The default duration (3 s) judges the default drive: its window begins after the
+    // speed has settled (≈ 1.7 s at 3000 rpm), and the drive holds its command.
+    let out = bench(&["run"]);
+    assert_eq!(out.status.code(), Some(0), "{}", text(&out.stdout));
+    assert!(text(&out.stdout).contains(": running: "));
     // The hold it names begins its window after the hand-over: 0.753 + 0.5 s.
     assert!(
         said.contains(&format!("at least {:.2} s", align + 0.5)),
