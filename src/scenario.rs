@@ -443,7 +443,7 @@ pub struct Summary {
     /// Why, in one line.
     pub verdict_reason: String,
     /// For an `unsettled` run: the instant after which a window can judge it (the first
-    /// hand-over, or where the speed settled) \[s\].
+    /// hand-over, where the speed settled, or, with no hand-over yet, the run's end) \[s\].
     pub judge_after_s: Option<f64>,
     /// Power-on to the controller's first hand-over to closed loop \[s\] (`None`: never).
     pub handover_s: Option<f64>,
