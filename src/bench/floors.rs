@@ -72,7 +72,7 @@ pub fn zoom(
 
 /// The figure's file name for `variant`.
 pub fn file_name(variant: &str) -> String {
-    format!("floor_{}.svg", variant.replace('@', "_"))
+    super::svg::file_name("floor", variant)
 }
 
 /// Each zoom's figure: (file name, SVG).

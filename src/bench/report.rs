@@ -256,7 +256,7 @@ pub fn write_folder(
     figures.extend(tornado_charts(c));
     let mut crossing_files = Vec::new();
     for t in &c.crossings {
-        let name = format!("crossing_{}.svg", t.variant.replace('@', "_"));
+        let name = super::svg::file_name("crossing", &t.variant);
         figures.push((name.clone(), crossing_chart(t)));
         crossing_files.push(name);
     }

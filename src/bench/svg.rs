@@ -102,6 +102,12 @@ pub(crate) fn escape(s: &str) -> String {
         .replace('>', "&gt;")
 }
 
+/// A figure's file name: `{prefix}_{label}.svg`, the variant's label with `@` (the
+/// conduction angle's mark) as `_`, one rule for every per-variant figure.
+pub fn file_name(prefix: &str, label: &str) -> String {
+    format!("{prefix}_{}.svg", label.replace('@', "_"))
+}
+
 /// A labelled vertical line across a panel (a known frequency on a spectrum).
 #[derive(Clone, Debug)]
 pub struct Mark {

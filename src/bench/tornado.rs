@@ -122,11 +122,7 @@ pub fn bars(
 
 /// The chart's file.
 pub fn file_of(strategy: &str, m: Measure) -> String {
-    format!(
-        "tornado_{}_{}.svg",
-        m.file_part(),
-        strategy.replace('@', "_")
-    )
+    super::svg::file_name(&format!("tornado_{}", m.file_part()), strategy)
 }
 
 const W: f64 = 1000.0;

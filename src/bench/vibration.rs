@@ -10,7 +10,7 @@ use std::fmt::Write as _;
 
 /// The spectrum figure of a variant.
 pub fn file_of(variant: &str) -> String {
-    format!("spectrum_{}.svg", variant.replace('@', "_"))
+    super::svg::file_name("spectrum", variant)
 }
 
 fn runs<'a>(c: &'a Comparison, variant: &'a str) -> impl Iterator<Item = &'a SpectrumRun> {
