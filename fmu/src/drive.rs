@@ -480,7 +480,7 @@ mod tests {
         Verdict::ALL[out[0] as usize - 1]
     }
 
-    /// The same cases the run verdicts judge (tests/verdicts.rs), judged live.
+    /// The same cases the run verdicts judge (tests/integration/verdicts.rs), judged live.
     #[test]
     fn the_verdict_output_judges_as_a_run_does() {
         assert_eq!(verdict_after(&[], 3.0), Verdict::Running);

@@ -684,7 +684,7 @@ mod tests {
 
     #[test]
     fn a_refused_parameter_reads_as_the_command_line_words_it() {
-        // The words of `drive-bench run --config` for the same values (tests/cli.rs).
+        // The words of `drive-bench run --config` for the same values (tests/integration/cli.rs).
         let mut m = Model::new();
         let r = vr("motor.resistance_ohm");
         for (x, want) in [

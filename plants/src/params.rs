@@ -608,7 +608,7 @@ pub struct SolverParams {
     /// is ≈ (h/τe)^5/120 ≈ 1.5e-6. The comparators see each voltage along its chord over a
     /// step, and on steps longer than 40 µs (`bldc::CHORD_S`) a floating terminal's back-EMF
     /// as its cubic Hermite interpolant on top (see `sensing::Knot`): crossings agree with
-    /// 0.8 µs steps within a tick (`tests/step_fidelity.rs`; chords alone over 80 µs moved
+    /// 0.8 µs steps within a tick (`tests/integration/step_fidelity.rs`; chords alone over 80 µs moved
     /// one by 9 ticks at 8000 rpm).
     /// Rule: 0.1 µs ..= 100 µs.
     pub max_step_s: f64,

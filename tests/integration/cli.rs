@@ -4,7 +4,7 @@ use bldc_drive::DriveConfig;
 use std::path::PathBuf;
 use std::process::{Command, Output};
 
-mod common;
+use crate::common;
 
 fn bench(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_drive-bench"))

@@ -1,7 +1,7 @@
 //! The comparator front end: PWM edges near a back-EMF crossing glitch the raw zero-crossing
 //! signal; at 100 % duty they do not; the seed reproduces every glitch.
 
-mod common;
+use crate::common;
 
 use bldc_drive::drive_core::{Abc, Hold, Phase, Plant, StopReason, Ticks};
 use bldc_drive::plants::PlantParams;

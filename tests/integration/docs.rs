@@ -10,7 +10,7 @@ use bldc_drive::bench::report::metrics_reference;
 use bldc_drive::scenario::{Scenario, TraceRow, run};
 use std::path::{Path, PathBuf};
 
-const BEGIN: &str = "<!-- generated from src/bench/report.rs (metrics_reference); `UPDATE_DOCS=1 cargo test --test docs` rewrites it -->\n";
+const BEGIN: &str = "<!-- generated from src/bench/report.rs (metrics_reference); `UPDATE_DOCS=1 cargo test --test integration docs::` rewrites it -->\n";
 const END: &str = "<!-- end of generated part -->";
 
 fn root() -> &'static Path {
@@ -40,7 +40,7 @@ fn metric_reference_is_current() {
             std::fs::write(&path, want).unwrap();
         } else {
             panic!(
-                "docs/outputs.md's metric reference is stale: run `UPDATE_DOCS=1 cargo test --test docs`"
+                "docs/outputs.md's metric reference is stale: run `UPDATE_DOCS=1 cargo test --test integration docs::`"
             );
         }
     }
@@ -125,7 +125,7 @@ fn readme_examples_are_the_files() {
     );
 }
 
-/// The files ARCHITECTURE.md names in code spans (`tests/summary.rs`, `scripts/test.sh`)
+/// The files ARCHITECTURE.md names in code spans (`tests/integration/summary.rs`, `scripts/test.sh`)
 /// exist: the map names code by module and type, and the tests and scripts by path.
 #[test]
 fn the_files_architecture_md_names_exist() {

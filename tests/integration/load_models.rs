@@ -2,7 +2,7 @@
 //! with the bridge off (no current: the motor's EMF at 1000 rpm stays far inside the
 //! diode clamps) or the rotor locked.
 
-mod common;
+use crate::common;
 
 use bldc_drive::drive_core::{Abc, Hold, Plant, Ticks};
 use bldc_drive::plants::{Load, PlantParams};

@@ -1,7 +1,7 @@
 //! The plant against independently derived physics: RL step, energy balance, torque/EMF
 //! consistency, floating terminals, diode freewheeling.
 
-mod common;
+use crate::common;
 
 use bldc_drive::drive_core::{
     Abc, Command, Hold, OpenLoopSixStep, Phase, Plant, StopReason, Ticks,

@@ -125,7 +125,7 @@ fn the_shipped_loops_do_not_hunt_at_2000_and_3000_rpm() {
 fn the_published_loops_hunt_at_2000_rpm() {
     let published = DriveConfig::from_toml(&format!(
         "[strategy]\nname = \"twelve-step-df\"\n{}",
-        include_str!("../examples/configs/published-chip.toml")
+        include_str!("../../examples/configs/published-chip.toml")
     ))
     .expect("the preset parses");
     let q = measure(published, 2000.0);

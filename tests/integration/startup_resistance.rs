@@ -53,7 +53,7 @@ fn the_shipped_start_up_runs_at_every_resistance_from_0_4_to_3_ohm() {
 /// issue reported: 0.6 Ω does not start, 2.2 Ω (the built-in motor) does.
 #[test]
 fn the_published_start_up_fails_inside_the_band() {
-    let published = include_str!("../examples/configs/published-chip.toml");
+    let published = include_str!("../../examples/configs/published-chip.toml");
     let cfg = DriveConfig::from_toml(published).expect("published preset");
     assert_eq!(cfg.control.align_current_a, 0.0);
     assert_eq!(cfg.control.start_phase_current_a, 0.0);

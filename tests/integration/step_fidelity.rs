@@ -14,7 +14,7 @@
 //! added for the grid. Noise held over 0.5 µs segments can turn a smaller move into a jump
 //! to the next segment of up to 2·noise/(E·ωe).
 
-mod common;
+use crate::common;
 
 use bldc_drive::drive_core::{Abc, Hold, Phase, Plant, StopReason, TICK_S, Ticks};
 use bldc_drive::plants::bldc::CHORD_S;

@@ -36,8 +36,9 @@ fn chip(name: StrategyName, supervisor: bool) -> DriveConfig {
 /// at 0.77 A, whose freewheel hides the crossings. The scenarios of that loss need the
 /// published loops.
 fn published(name: StrategyName, supervisor: bool) -> DriveConfig {
-    let mut cfg = DriveConfig::from_toml(include_str!("../examples/configs/published-chip.toml"))
-        .expect("the published preset parses");
+    let mut cfg =
+        DriveConfig::from_toml(include_str!("../../examples/configs/published-chip.toml"))
+            .expect("the published preset parses");
     cfg.strategy.name = name;
     cfg.control.supervisor = supervisor;
     cfg

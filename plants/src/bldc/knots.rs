@@ -10,7 +10,7 @@ use drive_core::{Abc, Phase, Ticks};
 
 /// The longest step over which the comparators see a floating terminal's back-EMF along
 /// its chord \[s\]. Near a crossing the chord is off by at most E·ωe³·h³/8, a move of
-/// ωe²·h³/4 (21 ticks at 8000 rpm, the bound `tests/step_fidelity.rs` allows; it measures
+/// ωe²·h³/4 (21 ticks at 8000 rpm, the bound `tests/integration/step_fidelity.rs` allows; it measures
 /// a tick at most, since the sine's curvature vanishes at its crossing). Longer steps add the
 /// back-EMF's curvature (see [`Knot`]), which costs a few hundred instructions a step.
 pub const CHORD_S: f64 = 40e-6;
