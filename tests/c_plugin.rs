@@ -56,21 +56,23 @@ fn drive_bench_runs_the_c_plugin_from_standstill_to_the_speed_command() {
 
 #[test]
 fn c_plugin_instances_share_nothing() {
-    // One instance alone, and two of the same library stepped in turn (another speed
-    // command): the first ends in exactly the same state either way.
+    // One instance alone, and two of the same library stepped in turn with other speed
+    // commands: the first ends in exactly the same state either way. Both reach their
+    // commands by ~0.45 s, so their speed loops (the state most tempting to keep in a
+    // static) work side by side until 0.8 s.
     let lib = PluginLibrary::load(&c_example()).unwrap();
     assert_eq!(lib.name(), "c-six-step");
     // (Both in the same 10 ms pieces: where a run stops ends a plant step.)
     let (mut alone, mut a, mut b) = (
-        engine(&lib, 3000.0),
-        engine(&lib, 3000.0),
+        engine(&lib, 800.0),
+        engine(&lib, 800.0),
         engine(&lib, 1000.0),
     );
-    for k in 1..=60 {
+    for k in 1..=80 {
         let t = f64::from(k) * 0.01;
         run_to(&mut alone, t, |_, _| {}).unwrap();
     }
-    for k in 1..=60 {
+    for k in 1..=80 {
         let t = f64::from(k) * 0.01;
         run_to(&mut a, t, |_, _| {}).unwrap();
         run_to(&mut b, t, |_, _| {}).unwrap();
@@ -80,7 +82,10 @@ fn c_plugin_instances_share_nothing() {
         "the instance stepped beside another ended elsewhere"
     );
     let (sa, sb) = (a.plant.observe().speed_rpm, b.plant.observe().speed_rpm);
-    assert!(sa > 500.0 && sb > 500.0 && sa != sb, "{sa} vs {sb} rpm");
+    assert!(
+        (sa - 800.0).abs() < 40.0 && (sb - 1000.0).abs() < 50.0,
+        "each at its command: {sa} and {sb} rpm"
+    );
 }
 
 #[test]
