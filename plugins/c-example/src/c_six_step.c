@@ -256,8 +256,8 @@ static int derive(const char *toml, const bldc_drive_info *info, params *p,
         if (t <= 0.0) {
             fail(err,
                  "create: `control.align_current_a` = %g gives no torque above Coulomb "
-                 "friction (rule: ke I > motor.coulomb_friction_nm)%s",
-                 i_align, "");
+                 "friction %g N m (rule: ke I > motor.coulomb_friction_nm)",
+                 i_align, tc);
             return 0;
         }
         p->ramp_accel = 0.5 * t / j;
@@ -707,7 +707,7 @@ static bldc_instance c6_create(const char *config_toml, const bldc_drive_info *i
     }
     s = (c6 *)calloc(1, sizeof *s);
     if (s == NULL) {
-        fail(err, "create: %s", "out of memory");
+        fail(err, "create: out of memory");
         return NULL;
     }
     if (!derive(config_toml, info, &s->p, err)) {
@@ -728,7 +728,7 @@ static bldc_instance c6_clone(bldc_instance inst, bldc_error_buf *err)
     }
     copy = (c6 *)malloc(sizeof *copy);
     if (copy == NULL) {
-        fail(err, "clone: %s", "out of memory");
+        fail(err, "clone: out of memory");
         return NULL;
     }
     *copy = *s;
