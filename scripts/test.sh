@@ -56,8 +56,10 @@ cargo test --workspace --exclude bldc-drive-py --all-targets --locked "$@"
 # The API docs build without warnings (units in doc comments are written \[V\], not links).
 stage "cargo doc"
 RUSTDOCFLAGS="-D warnings" cargo doc --workspace --no-deps --locked --quiet
-# The plugins fmu/tests/fmi_plugin.py loads (the same build the Rust tests make).
-cargo build --profile test --locked -p example-plugin -p misbehaving-plugin
+# The plugins fmu/tests/fmi_plugin.py, fmi_c_plugin.py and the Python tests load (the same
+# build the Rust tests make; c-example-plugin's build script compiles the C plugins with the
+# system C compiler and fails, saying how to install one, when there is none).
+cargo build --profile test --locked -p example-plugin -p misbehaving-plugin -p c-example-plugin
 
 for t in fmu/tests/*.py; do
     [ "$(basename "$t")" = fmu_paths.py ] && continue

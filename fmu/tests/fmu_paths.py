@@ -10,7 +10,8 @@ FMU = os.path.join(TARGET, "fmu", "BldcDrive.fmu")
 _PROFILE = os.environ.get("FMU_PROFILE", "release")
 _PROFILE_DIR = {"dev": "debug", "test": "debug", "bench": "release"}.get(_PROFILE, _PROFILE)
 NATIVE_TRACE = os.path.join(TARGET, _PROFILE_DIR, "native-trace")
-# Built by scripts/test.sh (`cargo build --profile test -p example-plugin -p misbehaving-plugin`).
+# Built by scripts/test.sh (`cargo build --profile test -p example-plugin -p misbehaving-plugin
+# -p c-example-plugin`).
 PLUGIN_DIR = os.path.join(TARGET, "debug")
 EXAMPLE_PLUGIN = os.path.join(PLUGIN_DIR, "libexample_plugin.so")
 MISBEHAVING_PLUGIN = os.path.join(PLUGIN_DIR, "libmisbehaving_plugin.so")

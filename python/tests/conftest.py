@@ -50,6 +50,18 @@ def example_plugin() -> pathlib.Path:
     return lib
 
 
+@pytest.fixture(scope="session")
+def c_plugin() -> pathlib.Path:
+    """The C SDK's example plugin (strategy ``c-six-step``), compiled by the system C
+    compiler when the test command builds plugins/c-example."""
+    target = pathlib.Path(os.environ.get("CARGO_TARGET_DIR") or ROOT / "target")
+    lib = target / "debug" / "libc_six_step.so"
+    if not lib.is_file():
+        pytest.fail(f"{lib} not found: build it (cargo build --profile test -p c-example-plugin; "
+                    "it needs a C compiler: apt-get install gcc)")
+    return lib
+
+
 def cli(binary, *args, check=True):
     """Runs drive-bench; the completed process."""
     p = subprocess.run([str(binary), *map(str, args)], capture_output=True, text=True)

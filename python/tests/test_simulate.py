@@ -165,6 +165,18 @@ def test_a_plugin_strategy_runs_as_drive_bench_runs_it(drive_bench, tmp_path, ex
     assert got.summary["strategy"] == name
 
 
+def test_the_c_plugin_starts_the_motor_and_holds_the_command(drive_bench, tmp_path, c_plugin):
+    # Written in C against strategy-abi/include/bldc_strategy.h: from standstill (align,
+    # ramp, then its own zero crossings) to 3000 rpm, judged running, as drive-bench says.
+    assert "c-six-step" in bldc_drive.strategies(plugins=[c_plugin])
+    run = dict(strategy="c-six-step", speed_rpm=3000, duration_s=3.0, seed=1)
+    got = bldc_drive.simulate(**run, plugins=[str(c_plugin)])
+    assert got.verdict == "running", got.summary
+    assert abs(got.summary["speed_mean_rpm"] - 3000) < 30, got.summary
+    want = cli_json(drive_bench, tmp_path, "--plugin", c_plugin, *cli_args(run))
+    assert without_wall_clock(got.summary) == without_wall_clock(want["summary"])
+
+
 def test_bad_plugins_raise_a_value_error_naming_them(tmp_path):
     fake = tmp_path / "libnot_a_plugin.so"
     fake.write_text("not a library")

@@ -84,6 +84,24 @@ pub enum PluginError {
     },
 }
 
+/// The functions of [`abi::VTable`], in its order (for errors naming an entry).
+const VTABLE_NAMES: [&str; 11] = [
+    "create",
+    "clone",
+    "destroy",
+    "reset",
+    "clock",
+    "table",
+    "set_inputs",
+    "step",
+    "save",
+    "restore",
+    "planned_change",
+];
+const VTABLE_ENTRIES: usize = VTABLE_NAMES.len();
+const _: () =
+    assert!(std::mem::size_of::<abi::VTable>() == VTABLE_ENTRIES * std::mem::size_of::<usize>());
+
 struct Loaded {
     path: PathBuf,
     name: String,
@@ -203,18 +221,30 @@ impl PluginLibrary {
                 "vtable of {size} bytes (rule: a whole number of {ptr}-byte function pointers)"
             )));
         }
-        let vtable = {
-            let full = std::mem::size_of::<abi::VTable>();
-            let mut v = std::mem::MaybeUninit::<abi::VTable>::uninit();
-            // SAFETY: the plugin's table holds `size` bytes (at least the 1.0 functions);
-            // what it lacks is set to None (null pointers) before use.
-            unsafe {
-                let src = std::ptr::addr_of!((*header).vtable).cast::<u8>();
-                let dst = v.as_mut_ptr().cast::<u8>();
-                std::ptr::write_bytes(dst, 0, full);
-                std::ptr::copy_nonoverlapping(src, dst, size.min(full));
-                v.assume_init()
-            }
+        // The table as raw pointers first: a C plugin can leave an entry NULL, which the
+        // 1.0 functions' Rust types (never null) must not hold.
+        let mut raw = [std::ptr::null::<std::ffi::c_void>(); VTABLE_ENTRIES];
+        // SAFETY: the plugin's table holds `size` bytes (at least the 1.0 functions), a
+        // whole number of pointers; what it lacks stays null (None).
+        unsafe {
+            let src = std::ptr::addr_of!((*header).vtable).cast::<u8>();
+            let n = size.min(std::mem::size_of_val(&raw));
+            std::ptr::copy_nonoverlapping(src, raw.as_mut_ptr().cast::<u8>(), n);
+        }
+        if let Some(k) = raw[..abi::VTABLE_1_0 / ptr]
+            .iter()
+            .position(|f| f.is_null())
+        {
+            return Err(bad(format!(
+                "vtable entry `{}` is a null pointer (rule: the eight ABI {}.0 functions, create to step, are all given)",
+                VTABLE_NAMES[k],
+                abi::ABI_MAJOR
+            )));
+        }
+        // SAFETY: same size and layout (checked at compile time below); the entries that
+        // are not Options are non-null.
+        let vtable = unsafe {
+            std::mem::transmute::<[*const std::ffi::c_void; VTABLE_ENTRIES], abi::VTable>(raw)
         };
         let name = text(name_p, "name", path)?;
         if name.is_empty() {
@@ -357,11 +387,22 @@ impl ErrBuf {
         self.raw.len = 0;
         &mut self.raw
     }
+    /// The plugin's message: `len` bytes, never more than the buffer (a plugin written in
+    /// C may claim more, or write no NUL: neither is read past the buffer), lossy UTF-8.
     fn message(&self) -> String {
         let n = self.raw.len.min(self.bytes.len());
         let m = String::from_utf8_lossy(&self.bytes[..n]).into_owned();
-        if m.is_empty() {
-            "(no message)".into()
+        let m = if m.is_empty() {
+            "(no message; rule: a failed call writes its reason into the error buffer)".into()
+        } else {
+            m
+        };
+        if self.raw.len > self.bytes.len() {
+            format!(
+                "{m} [message cut: the plugin set len = {} for a buffer of {} bytes (rule: len <= cap)]",
+                self.raw.len,
+                self.bytes.len()
+            )
         } else {
             m
         }
@@ -530,10 +571,16 @@ impl PluginStrategy {
     }
 
     /// Converts the plugin's command, refusing anything the bridge must never see.
-    fn command(&self, c: &abi::CCommand) -> Result<Command, String> {
+    fn command(&self, now: Ticks, c: &abi::CCommand) -> Result<Command, String> {
         let pattern = pattern_of(&c.legs)?;
         if c.duty > self.top {
             return Err(format!("duty {} counts (rule: 0..={})", c.duty, self.top));
+        }
+        if c.wake_at <= now.0 {
+            return Err(format!(
+                "wake_at = {} ticks at the step of tick {} (rule: a wake-up after the step's instant, or u64::MAX for none)",
+                c.wake_at, now.0
+            ));
         }
         Ok(Command {
             pattern,
@@ -607,7 +654,7 @@ impl Controller for PluginStrategy {
             self.fail("step", m);
             return Command::OFF;
         }
-        match self.command(&c) {
+        match self.command(now, &c) {
             Ok(cmd) => {
                 self.status = ChipStatus {
                     mode: match st.mode {

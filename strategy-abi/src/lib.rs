@@ -23,6 +23,12 @@
 //! Plugin authors implement [`Plugin`] in safe Rust and call [`export_strategy!`]: the
 //! generated functions catch every panic (a panic never unwinds into the host; the
 //! instance then refuses further calls) and convert errors into messages.
+//!
+//! Plugin authors in C (or any language that can export a C function) include
+//! `strategy-abi/include/bldc_strategy.h`, the same ABI as one C99 header (also valid
+//! C++11); `plugins/c-example/tests/layout.rs` checks that every struct's size, alignment
+//! and field offsets and every constant there equal the definitions here. A guide:
+//! docs/plugins-c.md.
 #![warn(missing_docs)]
 
 mod export;

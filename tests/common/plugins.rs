@@ -5,7 +5,8 @@ use std::process::Command;
 use std::sync::OnceLock;
 
 /// Builds the plugin crates with the test profile (sharing the test build's artifacts)
-/// and returns the folder holding the libraries.
+/// and returns the folder holding the libraries. `c-example-plugin`'s build script
+/// compiles the C plugins with the system C compiler and puts them there too.
 pub fn plugin_dir() -> PathBuf {
     static BUILT: OnceLock<PathBuf> = OnceLock::new();
     BUILT
@@ -20,6 +21,8 @@ pub fn plugin_dir() -> PathBuf {
                     "example-plugin",
                     "-p",
                     "misbehaving-plugin",
+                    "-p",
+                    "c-example-plugin",
                 ])
                 .current_dir(env!("CARGO_MANIFEST_DIR"))
                 .status()
@@ -40,4 +43,14 @@ pub fn example() -> PathBuf {
 /// The misbehaving test fixture.
 pub fn misbehaving() -> PathBuf {
     plugin_dir().join("libmisbehaving_plugin.so")
+}
+
+/// The C SDK's example plugin (`c-six-step`), compiled by the system C compiler.
+pub fn c_example() -> PathBuf {
+    plugin_dir().join("libc_six_step.so")
+}
+
+/// The C misbehaving test fixture (`c-misbehaving`).
+pub fn c_misbehaving() -> PathBuf {
+    plugin_dir().join("libc_misbehaving.so")
 }

@@ -1,5 +1,6 @@
-//! `cargo xtask <task>`: `fmu [--plugin PATH]` packages target/fmu/BldcDrive.fmu (with a
-//! strategy plugin in its resources); `fmu-docs` writes docs/fmu-variables.md.
+//! `cargo xtask <task>`: `fmu [--plugin PATH [--out FILE]]` packages
+//! target/fmu/BldcDrive.fmu (with a strategy plugin in its resources; to FILE instead if
+//! given); `fmu-docs` writes docs/fmu-variables.md.
 
 use std::path::PathBuf;
 
@@ -7,8 +8,11 @@ fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let result = match args.iter().map(String::as_str).collect::<Vec<_>>()[..] {
         ["fmu"] => xtask::package_fmu().map(|p| println!("{}", p.display())),
-        ["fmu", "--plugin", path] => {
-            let out = xtask::target_dir().join("fmu").join("BldcDrive.fmu");
+        ["fmu", "--plugin", path] | ["fmu", "--plugin", path, "--out", _] => {
+            let out = match args.get(4) {
+                Some(file) => PathBuf::from(file),
+                None => xtask::target_dir().join("fmu").join("BldcDrive.fmu"),
+            };
             let plugin = PathBuf::from(path);
             xtask::package_fmu_with(Some(&plugin), &out).map(|p| {
                 println!("{}", p.display());
@@ -18,7 +22,7 @@ fn main() {
         }
         ["fmu-docs"] => xtask::write_fmu_docs().map(|p| println!("{}", p.display())),
         _ => Err(format!(
-            "unknown arguments `{}` (tasks: fmu, fmu --plugin PATH, fmu-docs)",
+            "unknown arguments `{}` (tasks: fmu, fmu --plugin PATH [--out FILE], fmu-docs)",
             args.join(" ")
         )),
     };
