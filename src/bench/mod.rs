@@ -10,6 +10,7 @@ pub mod html;
 pub mod pool;
 pub mod range;
 pub mod report;
+mod report_sections;
 pub mod results;
 pub mod sensitivity;
 pub mod sensitivity_report;
