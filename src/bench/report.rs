@@ -83,9 +83,12 @@ const SUMMARY_COLUMNS: [(&str, &str); 10] = [
     ("load dip rpm", "/ recovery s"),
 ];
 
+/// The summary's header (name, unit), its rows and the note under it.
+type SummaryTable = (Vec<(String, &'static str)>, Vec<[String; 10]>, String);
+
 /// The summary's header, its rows (one per variant) and the note under it: one source for
 /// the terminal's fixed-width table and the report's Markdown table.
-fn summary(c: &Comparison) -> (Vec<(String, &'static str)>, Vec<[String; 10]>, String) {
+fn summary(c: &Comparison) -> SummaryTable {
     let trace_rpm = c.plan.trace_rpm;
     let head = SUMMARY_COLUMNS
         .iter()
