@@ -3,19 +3,18 @@
 //! The library, `drive-bench run --scenario` (see [`crate::scenario_file`]) and the
 //! bench's own experiments all build this one type.
 
+mod measure;
+
 use crate::config::DriveConfig;
 use crate::drive::{BuildError, DriveEngine, build, build_plugin};
-use crate::metrics::{AngleErrors, SampleStats, TimeStats};
 use crate::profile::{LoadProfile, Profile};
-use crate::verdict::{
-    Ending, Judgement, VerdictRule, Witness, hold_window_from_s, shortest_hold_s,
-};
+use crate::verdict::{VerdictRule, hold_window_from_s, shortest_hold_s};
 use drive_core::error::ParamError;
 use drive_core::{EngineError, Plant, StopReason, Ticks};
-use plants::BldcPlant;
+use measure::Metrics;
 use serde::Serialize;
 use std::time::Instant;
-use strategies::{Mode, PluginLibrary};
+use strategies::PluginLibrary;
 
 /// What to simulate.
 #[derive(Clone, Debug)]
@@ -518,6 +517,69 @@ pub fn run_observed(
     mut on_time: impl FnMut(f64),
 ) -> Result<Outcome, RunError> {
     sc.validate()?;
+    let (config, mut eng, mut load) = set_up(sc)?;
+    let wall = Instant::now();
+    let mut trace = sc.trace.map(Rows::new);
+    let mut metrics = Metrics::new(sc, &eng);
+    let block = metrics.block;
+    let mut next_time = 0.0;
+    let (mut trace_on, mut steady_on) = (false, false);
+    for (t_event, event) in events(sc) {
+        let end = tick_of(t_event);
+        let trace_event = matches!(event, Event::TraceOn | Event::TraceOff);
+        eng.run_until(end, |e, reason| {
+            if matches!(reason, StopReason::Diode | StopReason::Sensing) {
+                return; // between ticks: the next whole-tick stop follows at once
+            }
+            if e.plant.time_s() >= next_time {
+                on_time(e.plant.time_s());
+                next_time = e.plant.time_s() + sc.duration_s / 200.0;
+            }
+            // Stops made for the trace alone (its rows, its window's ends) are not seen by
+            // the metrics, which sample at the stops: a trace observes without changing the
+            // summary. An untraced run stops at samples only at the torque block boundaries.
+            let trace_only = match reason {
+                StopReason::Sample => !(steady_on && e.now().0 % block.0 == 0),
+                StopReason::End => trace_event,
+                _ => false,
+            };
+            // Observed once per stop, for the metrics and the trace alike.
+            let mut obs = None;
+            if !trace_only {
+                metrics.stop(e, &mut obs);
+            }
+            if let Some(rows) = &mut trace {
+                rows.stop(e, obs, &mut on_row);
+            }
+        })?;
+        match event {
+            Event::Speed(rpm) => eng.controller.set_speed_ref(rpm),
+            Event::Load(k, x) => {
+                load.set_term(k, x);
+                eng.plant.set_load(load);
+            }
+            Event::Supply(v) => eng.plant.set_supply_v(v)?,
+            Event::TraceOn => trace_on = true,
+            Event::TraceOff => trace_on = false,
+            Event::SteadyOn => steady_on = true,
+            Event::End => {}
+        }
+        // Stops at trace rows and torque block boundaries: every multiple of both.
+        let rows = trace.as_ref().filter(|_| trace_on).map(|t| t.every);
+        let blocks = steady_on.then_some(block);
+        eng.set_sample_period(match (rows, blocks) {
+            (Some(a), Some(b)) => Ticks(gcd(a.0, b.0)),
+            (Some(a), None) | (None, Some(a)) => a,
+            (None, None) => Ticks::NEVER,
+        });
+    }
+    let wall_s = wall.elapsed().as_secs_f64();
+    Ok(metrics.outcome(sc, &config, &eng, wall_s))
+}
+
+/// The engine of `sc` at t = 0, with the profiles' first values, the config it was built
+/// from and the load it carries.
+fn set_up(sc: &Scenario) -> Result<(DriveConfig, DriveEngine, plants::Load), RunError> {
     let mut config = sc.config.clone();
     config.control.speed_ref_rpm = sc.speed_rpm.value_at(0.0);
     if let Some(p) = &sc.supply_v {
@@ -527,63 +589,61 @@ pub fn run_observed(
         Some(p) => build_plugin(&config, p)?,
         None => build(&config)?,
     };
-    let mut load = sc.load.at(0.0);
+    let load = sc.load.at(0.0);
     eng.plant.set_load(load);
-    let wall = Instant::now();
-    let trace = sc.trace.map(|t| {
-        let every = Ticks(((t.every_s / Ticks(1).seconds()).round() as u64).max(1));
-        (every, tick_of(t.from_s), tick_of(t.to_s))
-    });
-    let table = eng.controller.table();
-    let steady_from = sc.steady_from_s;
-    let mut speed = TimeStats::default();
-    // The window's start: time, copper loss, ∫Te dt, ∫Te² dt. The torque and the current
-    // vary within a PWM period, so sampling them at the engine's stops would weigh the
-    // values at PWM edges and diode events by the time until the next stop: biased.
-    let mut window: Option<(f64, f64, f64, f64)> = None;
-    let integrals = |p: &BldcPlant| {
-        let (ti, ti2) = p.torque_integrals();
-        (p.time_s(), p.energy().copper, ti, ti2)
-    };
-    let mut angles = AngleErrors::default();
-    let mut witness = Witness::new(sc.verdict_rule, table.states_per_turn());
-    // Torque block means for the low-frequency ripple: blocks of 1/f_c on whole ticks.
-    let block = Ticks(((1.0 / sc.torque_lowpass_hz / Ticks(1).seconds()).round() as u64).max(1));
-    // The last block boundary and ∫Te dt there; a boundary is served once even when the
-    // engine calls back twice at its tick (an event on a sample instant).
-    let mut block_start: Option<(Ticks, f64)> = None;
-    let mut blocks = SampleStats::default();
-    // Peak |i| of the state in force, once a state has begun inside the window.
-    let (mut current_peak, mut state_peak) = (0.0f64, None::<f64>);
-    let mut state_peaks = (0u64, 0.0f64);
-    let (mut trace_on, mut steady_on) = (false, false);
-    let mut record = Vec::with_capacity(
-        sc.speed_record_s
-            .map_or(0, |p| (sc.duration_s / p) as usize + 2),
-    );
-    let mut duty = Vec::with_capacity(record.capacity());
-    let mut current_ref = Vec::with_capacity(record.capacity());
-    let record_every = sc.speed_record_s.unwrap_or(f64::INFINITY);
-    let top = f64::from(eng.carrier().top);
-    let mut next_record = if sc.speed_record_s.is_some() {
-        0.0
-    } else {
-        f64::INFINITY
-    };
-    let mut next_time = 0.0;
-    let mut last_state = 0u8;
-    let mut last_row: Option<Ticks> = None;
-    let mut handover: Option<f64> = None;
+    Ok((config, eng, load))
+}
 
-    // Every schedule change is a segment end; the engine runs exactly to it. It stops at
-    // the trace's sampling instants only inside the trace's window: elsewhere those stops
-    // would cost most of the run (and change nothing but the instants seen).
+/// The trace's rows: every `every` from `from` to `to`.
+struct Rows {
+    every: Ticks,
+    from: Ticks,
+    to: Ticks,
+    last: Option<Ticks>,
+}
+
+impl Rows {
+    fn new(t: TraceSpec) -> Self {
+        Rows {
+            every: Ticks(((t.every_s / Ticks(1).seconds()).round() as u64).max(1)),
+            from: tick_of(t.from_s),
+            to: tick_of(t.to_s),
+            last: None,
+        }
+    }
+
+    /// Gives `on_row` the row of a whole-tick stop of `e` on a row's instant, once; `obs`:
+    /// the plant, if observed at this stop already.
+    fn stop(
+        &mut self,
+        e: &DriveEngine,
+        obs: Option<plants::Observation>,
+        on_row: &mut impl FnMut(&TraceRow),
+    ) {
+        let now = e.now();
+        if now >= self.from
+            && now <= self.to
+            && now.0 % self.every.0 == 0
+            && self.last.is_none_or(|r| now > r)
+        {
+            self.last = Some(now);
+            let o = obs.unwrap_or_else(|| e.plant.observe());
+            on_row(&TraceRow::observed(e, &o));
+        }
+    }
+}
+
+/// The run's schedule, in time order: every change of a profile after t = 0 (the engine
+/// was built with their first values), the trace's window and the steady-state window's
+/// start, then the end. Every schedule change is a segment end; the engine runs exactly to
+/// it. It stops at the trace's sampling instants only inside the trace's window: elsewhere
+/// those stops would cost most of the run (and change nothing but the instants seen).
+fn events(sc: &Scenario) -> Vec<(f64, Event)> {
     let traced = sc
         .trace
         .iter()
         .flat_map(|t| [(t.from_s, Event::TraceOn), (t.to_s, Event::TraceOff)])
-        .chain([(steady_from, Event::SteadyOn)]);
-    // The profiles' settings after t = 0 (the engine was built with their first values).
+        .chain([(sc.steady_from_s, Event::SteadyOn)]);
     let (end, stair) = (sc.duration_s, sc.profile_update_s);
     let later = |p: &Profile| p.settings(end, stair).into_iter().skip(1);
     let loads = sc
@@ -606,198 +666,7 @@ pub fn run_observed(
     // Stable: settings at one instant keep their order.
     events.sort_by(|a, b| a.0.total_cmp(&b.0));
     events.push((sc.duration_s, Event::End));
-
-    for (t_event, event) in events {
-        let end = tick_of(t_event);
-        let trace_event = matches!(event, Event::TraceOn | Event::TraceOff);
-        eng.run_until(end, |e, reason| {
-            if matches!(reason, StopReason::Diode | StopReason::Sensing) {
-                return; // between ticks: the next whole-tick stop follows at once
-            }
-            if e.plant.time_s() >= next_time {
-                on_time(e.plant.time_s());
-                next_time = e.plant.time_s() + sc.duration_s / 200.0;
-            }
-            // Stops made for the trace alone (its rows, its window's ends) are not seen by
-            // the metrics, which sample at the stops: a trace observes without changing the
-            // summary. An untraced run stops at samples only at the torque block boundaries.
-            let trace_only = match reason {
-                StopReason::Sample => !(steady_on && e.now().0 % block.0 == 0),
-                StopReason::End => trace_event,
-                _ => false,
-            };
-            // Observed once per stop, for the metrics and the trace alike.
-            let mut obs = None;
-            if !trace_only {
-                let t = e.plant.time_s();
-                let s = e.controller.status();
-                if handover.is_none() && s.mode == Mode::Running {
-                    handover = Some(t);
-                }
-                let (recorded, steady) = (t >= next_record, t >= steady_from);
-                let commutated = s.state != last_state && s.state != 0 && last_state != 0;
-                // Observing inside an integrated step costs a step of its own: only when needed.
-                if recorded || steady || commutated {
-                    let o = *obs.insert(e.plant.observe());
-                    let finite = o.speed_rpm.is_finite()
-                        && o.i.u.is_finite()
-                        && o.i.v.is_finite()
-                        && o.i.w.is_finite();
-                    witness.instant(t, s.mode == Mode::Running, s.restarts, finite, steady);
-                    let command = e.controller.speed_ref_rpm();
-                    witness.speed(t, o.speed_rpm, command, steady);
-                    if commutated {
-                        // The table in force: the chip may start narrower than configured.
-                        let boundary = e.controller.table().state_start_deg(s.state);
-                        let theta = o.theta_e.to_degrees();
-                        witness.commutation(t, theta, boundary, o.speed_rpm, steady);
-                        if steady {
-                            angles.push(theta, boundary);
-                        }
-                    }
-                    if recorded {
-                        record.push((t, o.speed_rpm));
-                        duty.push((t, f64::from(s.duty) / top));
-                        current_ref.push((t, s.current_ref_a));
-                        next_record = t + record_every;
-                    }
-                    if steady {
-                        speed.push(t, o.speed_rpm);
-                        window.get_or_insert_with(|| integrals(&e.plant));
-                        let i_max = o.i.u.abs().max(o.i.v.abs()).max(o.i.w.abs());
-                        current_peak = current_peak.max(i_max);
-                        if commutated {
-                            if let Some(p) = state_peak {
-                                state_peaks.0 += 1;
-                                state_peaks.1 += p;
-                            }
-                            state_peak = Some(i_max);
-                        }
-                        state_peak = state_peak.map(|p| p.max(i_max));
-                        let now = e.now();
-                        if now.0 % block.0 == 0 && block_start.is_none_or(|b| now > b.0) {
-                            let ti = e.plant.torque_integrals().0;
-                            if let Some((_, t0)) = block_start {
-                                blocks.push((ti - t0) / block.seconds());
-                            }
-                            block_start = Some((now, ti));
-                        }
-                    }
-                }
-                last_state = s.state;
-            }
-            if let Some((every, from, to)) = trace {
-                let now = e.now();
-                if now >= from
-                    && now <= to
-                    && now.0 % every.0 == 0
-                    && last_row.is_none_or(|r| now > r)
-                {
-                    last_row = Some(now);
-                    let o = obs.unwrap_or_else(|| e.plant.observe());
-                    on_row(&TraceRow::observed(e, &o));
-                }
-            }
-        })?;
-        match event {
-            Event::Speed(rpm) => eng.controller.set_speed_ref(rpm),
-            Event::Load(k, x) => {
-                load.set_term(k, x);
-                eng.plant.set_load(load);
-            }
-            Event::Supply(v) => eng.plant.set_supply_v(v)?,
-            Event::TraceOn => trace_on = true,
-            Event::TraceOff => trace_on = false,
-            Event::SteadyOn => steady_on = true,
-            Event::End => {}
-        }
-        // Stops at trace rows and torque block boundaries: every multiple of both.
-        let rows = trace.filter(|_| trace_on).map(|t| t.0);
-        let blocks = steady_on.then_some(block);
-        eng.set_sample_period(match (rows, blocks) {
-            (Some(a), Some(b)) => Ticks(gcd(a.0, b.0)),
-            (Some(a), None) | (None, Some(a)) => a,
-            (None, None) => Ticks::NEVER,
-        });
-    }
-    let wall_s = wall.elapsed().as_secs_f64();
-    let (torque_mean, torque_ms, current_ms): (f64, f64, f64) = match window {
-        Some((t0, cu0, ti0, ti20)) => {
-            let (t1, cu1, ti1, ti21) = integrals(&eng.plant);
-            let dt = t1 - t0;
-            if dt > 0.0 {
-                let r = config.motor.resistance_ohm;
-                (
-                    (ti1 - ti0) / dt,
-                    (ti21 - ti20) / dt,
-                    (cu1 - cu0) / (3.0 * r * dt),
-                )
-            } else {
-                (0.0, 0.0, 0.0)
-            }
-        }
-        None => (0.0, 0.0, 0.0),
-    };
-    let s = eng.controller.status();
-    let sim_s = eng.now().seconds();
-    let Judgement {
-        verdict,
-        reason,
-        judge_after_s,
-    } = witness.judge(&Ending {
-        command_rpm: eng.controller.speed_ref_rpm(),
-        speed_mean_rpm: speed.mean(),
-        speed_rms_rpm: speed.mean().hypot(speed.std_dev()),
-        window_s: speed.duration(),
-        pole_pairs: config.motor.poles / 2,
-        chip_speed_rpm: f64::from(s.speed_est_rpm),
-        restarts: (s.restarts, sc.config.control.max_restarts),
-        gave_up: s.mode == Mode::GaveUp,
-    });
-    Ok(Outcome {
-        summary: Summary {
-            strategy: eng.controller.name().to_string(),
-            speed_ref_rpm: eng.controller.speed_ref_rpm(),
-            speed_mean_rpm: speed.mean(),
-            speed_ripple_rpm: speed.std_dev(),
-            torque_mean_nm: torque_mean,
-            // Rounding may leave the variance a hair below zero when the torque is steady.
-            torque_ripple_nm: (torque_ms - torque_mean * torque_mean).max(0.0).sqrt(),
-            current_rms_a: current_ms.max(0.0).sqrt(),
-            torque_ripple_lf_nm: blocks.std_dev(),
-            torque_lowpass_hz: sc.torque_lowpass_hz,
-            current_peak_a: current_peak,
-            commutation_peak_a: if state_peaks.0 > 0 {
-                state_peaks.1 / state_peaks.0 as f64
-            } else {
-                0.0
-            },
-            verdict,
-            verdict_reason: reason,
-            judge_after_s,
-            handover_s: handover,
-            started_at_s: witness.started_at_s(),
-            sync_lost_at: witness.sync_lost(),
-            restarts: s.restarts,
-            chip_running: s.mode == Mode::Running,
-            chip_speed_rpm: f64::from(s.speed_est_rpm),
-            commutations: angles.count,
-            commutation_error_deg_mean: angles.mean_deg,
-            commutation_error_deg_max: angles.max_abs_deg,
-            forced_crossings: s.forced_crossings,
-            steady_from_s: steady_from,
-            sim_s,
-            wall_s,
-            realtime_factor: if wall_s > 0.0 {
-                sim_s / wall_s
-            } else {
-                f64::INFINITY
-            },
-        },
-        speed: record,
-        duty,
-        current_ref,
-    })
+    events
 }
 
 /// Runs `sc` through `attempt` and, while it ends `unsettled`, again with its window

@@ -531,51 +531,91 @@ impl Witness {
         self.sync_lost
     }
 
-    /// The verdict.
+    /// The verdict: the first rule the run breaks, in order (see the module doc), else
+    /// running.
     pub fn judge(&self, end: &Ending) -> Judgement {
-        let r = &self.rule;
-        let cmd = end.command_rpm;
-        let mean = end.speed_mean_rpm;
-        let j = |verdict, reason: String| Judgement {
-            verdict,
-            reason,
-            judge_after_s: None,
-        };
-        if let Some(t) = self.non_finite_at_s {
-            return j(
-                Verdict::NonFinite,
-                format!("the plant's state became non-finite at t = {t:.6} s"),
-            );
-        }
-        if !mean.is_finite() {
-            return j(Verdict::NonFinite, format!("the true mean speed is {mean}"));
-        }
         let restarts_in_window = end
             .restarts
             .0
             .saturating_sub(self.restarts_at_window.unwrap_or(end.restarts.0));
+        self.non_finite(end)
+            .or_else(|| self.stopped_or_gave_up(end, restarts_in_window))
+            // (The speed's settling is judged below, once the drive is known in synchronism.)
+            .or_else(|| self.in_start_up(end))
+            .or_else(|| self.not_started_or_stalled(end))
+            .or_else(|| self.out_of_sync(end, restarts_in_window))
+            .or_else(|| self.settling(end))
+            .unwrap_or_else(|| self.on_speed(end))
+    }
+}
+
+/// A verdict other than `unsettled`, with its reason.
+fn judged(verdict: Verdict, reason: String) -> Judgement {
+    Judgement {
+        verdict,
+        reason,
+        judge_after_s: None,
+    }
+}
+
+/// The commutations in the window: the share in synchronism, their number, the states the
+/// rotor passed through at its true mean speed, and the slack allowed between the two.
+struct WindowSync {
+    share: f64,
+    n: f64,
+    passed: f64,
+    slack: f64,
+}
+
+impl Witness {
+    /// `non-finite`: the plant's state, or the mean speed.
+    fn non_finite(&self, end: &Ending) -> Option<Judgement> {
+        let mean = end.speed_mean_rpm;
+        if let Some(t) = self.non_finite_at_s {
+            return Some(judged(
+                Verdict::NonFinite,
+                format!("the plant's state became non-finite at t = {t:.6} s"),
+            ));
+        }
+        if !mean.is_finite() {
+            return Some(judged(
+                Verdict::NonFinite,
+                format!("the true mean speed is {mean}"),
+            ));
+        }
+        None
+    }
+
+    /// `stopped` (told to stop, at rest) or `gave-up` (the controller switched off).
+    fn stopped_or_gave_up(&self, end: &Ending, restarts_in_window: u32) -> Option<Judgement> {
+        let r = &self.rule;
+        let cmd = end.command_rpm;
         if cmd == 0.0 && end.speed_rms_rpm < r.rest_rpm && restarts_in_window == 0 {
-            return j(
+            return Some(judged(
                 Verdict::Stopped,
                 format!(
                     "told to stop, the rotor is at rest: rms true speed {:.2} rpm over the window (rule < {} rpm), no restart there ({} in the run)",
                     end.speed_rms_rpm, r.rest_rpm, end.restarts.0
                 ),
-            );
+            ));
         }
         if end.gave_up {
-            return j(
+            return Some(judged(
                 Verdict::GaveUp,
                 format!(
                     "the controller switched off after {} restarts (limit {})",
                     end.restarts.0, end.restarts.1
                 ),
-            );
+            ));
         }
-        // (The speed's settling is judged below, once the drive is known in synchronism.)
-        if let Some(j) = self.in_start_up(end) {
-            return j;
-        }
+        None
+    }
+
+    /// `not-started` (the rotor never followed the commutation) or `stalled`.
+    fn not_started_or_stalled(&self, end: &Ending) -> Option<Judgement> {
+        let r = &self.rule;
+        let cmd = end.command_rpm;
+        let mean = end.speed_mean_rpm;
         if self.started_at_s.is_none() {
             let why = if self.handed_over {
                 format!(
@@ -585,45 +625,49 @@ impl Witness {
             } else {
                 "the controller never reached closed loop".to_string()
             };
-            return j(
+            return Some(judged(
                 Verdict::NotStarted,
                 format!(
                     "{why}; true mean speed {mean:.1} rpm, controller's estimate {:.0} rpm, {} restarts",
                     end.chip_speed_rpm, end.restarts.0
                 ),
-            );
+            ));
         }
         if mean.abs() < r.stalled_fraction * cmd {
-            return j(
+            return Some(judged(
                 Verdict::Stalled,
                 format!(
                     "true mean speed {mean:.1} rpm, below {:.0} % of the {cmd:.0} rpm command (controller's estimate {:.0} rpm)",
                     100.0 * r.stalled_fraction,
                     end.chip_speed_rpm
                 ),
-            );
+            ));
         }
+        None
+    }
+
+    /// `lost-sync`: out of closed loop in the window, or its commutations out of
+    /// synchronism with the rotor or not as many as the states it passed.
+    fn out_of_sync(&self, end: &Ending, restarts_in_window: u32) -> Option<Judgement> {
+        let r = &self.rule;
+        let mean = end.speed_mean_rpm;
         if restarts_in_window > 0 || self.window_left_closed_loop {
-            return j(
+            return Some(judged(
                 Verdict::LostSync,
                 format!(
                     "the controller was not in closed loop throughout the steady-state window ({restarts_in_window} of its {} restarts there)",
                     end.restarts.0
                 ),
-            );
+            ));
         }
-        // States the rotor passed through in the window, from its true mean speed.
-        let passed = f64::from(self.states_per_turn)
-            * (mean / 60.0 * f64::from(end.pole_pairs) * end.window_s).abs();
-        let slack = f64::from(self.states_per_turn) + 0.02 * passed;
-        let n = self.window_commutations as f64;
-        let share = if n > 0.0 {
-            self.window_in_sync as f64 / n
-        } else {
-            0.0
-        };
+        let WindowSync {
+            share,
+            n,
+            passed,
+            slack,
+        } = self.window_sync(end);
         if share < r.sync_share || (n - passed).abs() > slack {
-            return j(
+            return Some(judged(
                 Verdict::LostSync,
                 format!(
                     "{:.0} % of {n:.0} commutations within ±{}° of the true angle (rule ≥ {:.0} %), the rotor passed {passed:.0} states; true mean {mean:.1} rpm, controller's estimate {:.0} rpm",
@@ -632,15 +676,40 @@ impl Witness {
                     100.0 * r.sync_share,
                     end.chip_speed_rpm
                 ),
-            );
+            ));
         }
-        if let Some(j) = self.settling(end) {
-            return j;
+        None
+    }
+
+    fn window_sync(&self, end: &Ending) -> WindowSync {
+        // States the rotor passed through in the window, from its true mean speed.
+        let passed = f64::from(self.states_per_turn)
+            * (end.speed_mean_rpm / 60.0 * f64::from(end.pole_pairs) * end.window_s).abs();
+        let slack = f64::from(self.states_per_turn) + 0.02 * passed;
+        let n = self.window_commutations as f64;
+        let share = if n > 0.0 {
+            self.window_in_sync as f64 / n
+        } else {
+            0.0
+        };
+        WindowSync {
+            share,
+            n,
+            passed,
+            slack,
         }
+    }
+
+    /// In synchronism and settled: `off-speed` or `running`.
+    fn on_speed(&self, end: &Ending) -> Judgement {
+        let r = &self.rule;
+        let cmd = end.command_rpm;
+        let mean = end.speed_mean_rpm;
+        let WindowSync { share, n, .. } = self.window_sync(end);
         // A command below 1 rpm is judged against 1 rpm (no stopped verdict yet).
         let off = (mean - cmd) / cmd.max(1.0);
         if off.abs() > r.speed_tolerance {
-            return j(
+            return judged(
                 Verdict::OffSpeed,
                 format!(
                     "in synchronism, true mean {mean:.1} rpm against the {cmd:.0} rpm command ({:+.1} %, tolerance ±{:.0} %)",
@@ -649,7 +718,7 @@ impl Witness {
                 ),
             );
         }
-        j(
+        judged(
             Verdict::Running,
             format!(
                 "in synchronism ({:.1} % of {n:.0} commutations within ±{}°), true mean {mean:.1} rpm ({:+.2} % of the command)",

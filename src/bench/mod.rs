@@ -4,11 +4,13 @@
 pub mod calibrate;
 pub mod decimate;
 pub mod drift;
+mod experiments;
 pub mod floors;
 pub mod html;
 pub mod pool;
 pub mod range;
 pub mod report;
+mod report_sections;
 pub mod results;
 pub mod sensitivity;
 pub mod sensitivity_report;
@@ -19,10 +21,10 @@ pub mod tornado;
 pub mod vibration;
 
 use crate::config::DriveConfig;
-use crate::metrics::{Disturbance, StepResponse, disturbance, held_above, step_response};
-use crate::profile::{LoadProfile, Profile};
-use crate::scenario::{RunError, Scenario, Summary, TraceRow, TraceSpec, run, settled};
-use drive_core::pwm::PwmSchemeKind;
+use crate::metrics::{Disturbance, StepResponse};
+use crate::profile::Profile;
+use crate::scenario::{RunError, Summary, TraceRow};
+use experiments::{Bench, Done};
 use range::Range;
 use serde::Serialize;
 use std::time::Instant;
@@ -456,28 +458,6 @@ impl Comparison {
     }
 }
 
-enum Job {
-    Grid(usize, f64),
-    Range(usize, range::Meter),
-    Step(usize, usize, AntiWindup),
-    Load(usize),
-    Startup(usize),
-    Spectrum(usize, f64, bool),
-    Drift(usize, bool),
-    Sensitivity(usize),
-}
-
-enum Done {
-    Grid(GridPoint, Option<CrossingTrace>),
-    Range(Range),
-    Step(StepRun),
-    Load(LoadRun),
-    Startup(StartupResult),
-    Spectrum(SpectrumRun),
-    Drift(drift::DriftRun),
-    Sensitivity(sensitivity::Point),
-}
-
 /// Runs `plan` for every variant on `base` (the motor, power stage, sensing and control
 /// of the user's config), on `threads` threads.
 pub fn compare(
@@ -495,250 +475,15 @@ pub fn compare(
         .map(|v| (v.label.clone(), v.strategy.clone()))
         .collect();
     let study = sensitivity::jobs(base, &studied)?;
-    let mut jobs: Vec<Job> = (0..study.len()).map(Job::Sensitivity).collect();
-    for (v, variant) in variants.iter().enumerate() {
-        if plan.ranges {
-            for &m in &plan.range_meters {
-                jobs.push(Job::Range(v, m)); // longest first, so the pool ends together
-            }
-        }
-        for &rpm in &plan.grid_rpm {
-            jobs.push(Job::Grid(v, rpm));
-        }
-        // A plugin's table is not known here, so its commutations cannot be judged.
-        if plan.drift && variant.plugin.is_none() {
-            jobs.push(Job::Drift(v, false));
-            if plan.drift_matched.as_ref() == Some(&variant.label) {
-                jobs.push(Job::Drift(v, true));
-            }
-        }
-        let complementary = plan
-            .spectrum_complementary
-            .as_ref()
-            .is_some_and(|x| x.0 == variant.label);
-        for &rpm in &plan.spectrum_rpm {
-            jobs.push(Job::Spectrum(v, rpm, false));
-            if complementary {
-                jobs.push(Job::Spectrum(v, rpm, true));
-            }
-        }
-        if plan.step.variants.contains(&variant.label) {
-            for c in 0..plan.step.cases.len() {
-                for aw in AntiWindup::ALL {
-                    jobs.push(Job::Step(v, c, aw));
-                }
-            }
-        }
-        jobs.push(Job::Load(v));
-        if plan.startup.0 > 0 && variant.plugin.is_none() {
-            jobs.push(Job::Startup(v));
-        }
-    }
-    let config_of = |v: usize| {
-        let mut c = plan.meter.apply(base);
-        c.strategy = variants[v].strategy.clone();
-        c
+    let jobs = experiments::jobs(&variants, &plan, study.len());
+    let bench = Bench {
+        base,
+        variants: &variants,
+        plan: &plan,
+        study: &study,
     };
-    let label = |v: usize| variants[v].label.clone();
     let results = pool::map(&jobs, threads, progress.then_some("drive-bench"), |job| {
-        Ok::<Done, RunError>(match *job {
-            Job::Grid(v, rpm) => {
-                let mut sc = Scenario::hold(config_of(v), rpm, plan.grid_duration_s);
-                sc.plugin = variants[v].plugin.clone();
-                let traced = rpm == plan.trace_rpm;
-                let mut rows = Vec::new();
-                // Lengthened while its window falls in the start-up.
-                let (_, out) = settled(&sc, |sc| {
-                    let mut sc = sc.clone();
-                    if traced {
-                        // One electrical turn at this speed plus margin, at 0.5 µs.
-                        let turn = 60.0 / rpm / f64::from(base.motor.poles / 2);
-                        let from = sc.steady_from_s;
-                        sc.trace = Some(TraceSpec {
-                            every_s: 0.5e-6,
-                            from_s: from,
-                            to_s: from + 1.1 * turn,
-                        });
-                    }
-                    rows.clear();
-                    run(&sc, |r| rows.push(*r))
-                })?;
-                let point = GridPoint {
-                    variant: label(v),
-                    summary: out.summary,
-                };
-                let trace = traced.then(|| CrossingTrace {
-                    variant: label(v),
-                    rows,
-                });
-                Done::Grid(point, trace)
-            }
-            Job::Spectrum(v, rpm, complementary) => {
-                let mut c = config_of(v);
-                if let (true, Some((_, dead_time_s))) =
-                    (complementary, &plan.spectrum_complementary)
-                {
-                    c.power_stage.pwm_scheme = PwmSchemeKind::Complementary;
-                    c.power_stage.dead_time_s = *dead_time_s;
-                }
-                let mut sc = range::turned(&c, plan.trace_rpm, rpm, range::TURN_DOWN_S);
-                sc.plugin = variants[v].plugin.clone();
-                let mut samples = Vec::new();
-                // Over the window, lengthened while that still falls in the settling.
-                let (_, out) = settled(&sc, |sc| {
-                    let mut sc = sc.clone();
-                    sc.trace = Some(TraceSpec {
-                        every_s: spectrum::TRACE_EVERY_S,
-                        from_s: sc.steady_from_s,
-                        to_s: sc.duration_s,
-                    });
-                    samples.clear();
-                    run(&sc, |r| samples.push(spectrum::sample(r)))
-                })?;
-                // A plugin's steps are not known here: its lines are named on twelve
-                // (a six-step plugin's commutation then reads "every 2 steps").
-                let steps = match variants[v].plugin {
-                    Some(_) => 12,
-                    None => variants[v].strategy.table().states_per_turn(),
-                };
-                let spectrum = out
-                    .summary
-                    .verdict
-                    .is_running()
-                    .then(|| spectrum::torque_spectrum(&samples, steps))
-                    .flatten();
-                Done::Spectrum(SpectrumRun {
-                    variant: label(v),
-                    rpm,
-                    pwm_scheme: c.power_stage.pwm_scheme.name().to_string(),
-                    summary: out.summary,
-                    spectrum,
-                })
-            }
-            Job::Drift(v, matched) => {
-                let mut c = range::Meter::WIDE.apply(&config_of(v));
-                let cmp = &mut c.sensing.comparator;
-                if matched {
-                    cmp.neutral_filter_tau_s = cmp.phase_filter_tau_s;
-                }
-                let change = if matched {
-                    format!(
-                        "neutral filter τ = phase filter τ = {:.2} µs",
-                        cmp.phase_filter_tau_s * 1e6
-                    )
-                } else {
-                    String::new()
-                };
-                let table = variants[v].strategy.table();
-                Done::Drift(drift::run_drift(&c, table, &label(v), &change)?)
-            }
-            Job::Sensitivity(k) => Done::Sensitivity(sensitivity::run_job(&study[k])?),
-            Job::Range(v, m) => Done::Range(range::search(
-                &m.apply(&config_of(v)),
-                variants[v].plugin.as_ref(),
-                &label(v),
-                m.label,
-            )?),
-            Job::Step(v, case, aw) => {
-                let p = &plan.step.cases[case];
-                let mut c = config_of(v);
-                c.control.anti_windup = aw != AntiWindup::Off;
-                c.control.speed_anti_windup = aw == AntiWindup::Both;
-                let mut sc = Scenario::hold(c, p.speed_rpm.value_at(0.0), p.duration_s);
-                sc.plugin = variants[v].plugin.clone();
-                sc.speed_rpm = p.speed_rpm.clone();
-                sc.load.coulomb_nm = p.load_nm.clone();
-                sc.speed_record_s = Some(0.5e-3);
-                // The verdict only says whether the drive holds its final command: judged
-                // over the last 0.5 s, after the response (measured from the record),
-                // and lengthened while that still falls in its settling.
-                sc.steady_from_s = p.duration_s - 0.5;
-                let (_, out) = settled(&sc, |sc| run(sc, |_| {}))?;
-                // The response starts from wherever the speed is at the event.
-                let from = out
-                    .speed
-                    .iter()
-                    .take_while(|q| q.0 <= p.at_s)
-                    .last()
-                    .map_or(p.speed_rpm.value_at(0.0), |q| q.1);
-                let dip_rpm = p.load_nm.points().iter().find(|l| l.1 != 0.0).map(|l| {
-                    let during: Vec<_> = out
-                        .speed
-                        .iter()
-                        .copied()
-                        .filter(|q| q.0 <= p.at_s)
-                        .collect();
-                    disturbance(&during, l.0, p.to_rpm).dip
-                });
-                let sign = if p.to_rpm >= from { 1.0 } else { -1.0 };
-                let peak_beyond_rpm = out
-                    .speed
-                    .iter()
-                    .filter(|q| q.0 >= p.at_s)
-                    .map(|q| sign * (q.1 - p.to_rpm))
-                    .fold(0.0, f64::max);
-                Done::Step(StepRun {
-                    variant: label(v),
-                    case,
-                    peak_beyond_rpm,
-                    anti_windup: aw,
-                    from_rpm: from,
-                    dip_rpm,
-                    full_duty_after_s: held_above(&out.duty, p.at_s, 0.95),
-                    response: step_response(&out.speed, p.at_s, from, p.to_rpm),
-                    restarts: out.summary.restarts,
-                    verdict: out.summary.verdict,
-                    speed: out.speed,
-                    duty: out.duty,
-                    current_ref: out.current_ref,
-                })
-            }
-            Job::Startup(v) => {
-                let (samples, seed) = plan.startup;
-                let mut c = config_of(v);
-                // ND's full-voltage window alone drives the motor above ≈ 4700 rpm.
-                c.control.speed_ref_rpm = if c.strategy.name == StrategyName::TwelveStepNd {
-                    6000.0
-                } else {
-                    3000.0
-                };
-                Done::Startup(StartupResult {
-                    variant: label(v),
-                    command_rpm: c.control.speed_ref_rpm,
-                    command_note: (c.strategy.name == StrategyName::TwelveStepNd).then_some(
-                        "ND's full-voltage window alone drives the motor above ≈ 4700 rpm",
-                    ),
-                    spread: startup::Spread::default(),
-                    stats: startup::monte_carlo(
-                        &c,
-                        &variants[v].strategy,
-                        samples,
-                        seed,
-                        startup::Spread::default(),
-                        1,
-                    )?,
-                })
-            }
-            Job::Load(v) => {
-                let (rpm, nm, at, dur) = plan.load;
-                let mut sc = Scenario::hold(config_of(v), rpm, dur);
-                sc.plugin = variants[v].plugin.clone();
-                sc.load = LoadProfile {
-                    coulomb_nm: Profile::constant(0.0).step_to(at, nm),
-                    ..LoadProfile::default()
-                };
-                sc.speed_record_s = Some(0.5e-3);
-                // Lengthened while its window falls in the recovery.
-                let (_, out) = settled(&sc, |sc| run(sc, |_| {}))?;
-                Done::Load(LoadRun {
-                    variant: label(v),
-                    response: disturbance(&out.speed, at, rpm),
-                    restarts: out.summary.restarts,
-                    verdict: out.summary.verdict,
-                    speed: out.speed,
-                })
-            }
-        })
+        bench.run(job)
     });
     let mut cmp = Comparison {
         variants,
@@ -757,21 +502,39 @@ pub fn compare(
         threads,
     };
     for r in results {
-        match r? {
+        cmp.gather(r?);
+    }
+    cmp.floor_zooms = zoom_floors(base, &cmp, threads)?;
+    cmp.wall_s = wall.elapsed().as_secs_f64();
+    Ok(cmp)
+}
+
+impl Comparison {
+    /// Files one run's result where the report reads it.
+    fn gather(&mut self, done: Done) {
+        match done {
             Done::Grid(p, t) => {
-                cmp.grid.push(p);
-                cmp.crossings.extend(t);
+                self.grid.push(p);
+                self.crossings.extend(t);
             }
-            Done::Range(r) => cmp.ranges.push(r),
-            Done::Step(s) => cmp.steps.push(s),
-            Done::Load(l) => cmp.loads.push(l),
-            Done::Startup(x) => cmp.startups.push(x),
-            Done::Spectrum(x) => cmp.spectra.push(x),
-            Done::Drift(x) => cmp.drifts.push(x),
-            Done::Sensitivity(x) => cmp.sensitivity.push(x),
+            Done::Range(r) => self.ranges.push(r),
+            Done::Step(s) => self.steps.push(s),
+            Done::Load(l) => self.loads.push(l),
+            Done::Startup(x) => self.startups.push(x),
+            Done::Spectrum(x) => self.spectra.push(x),
+            Done::Drift(x) => self.drifts.push(x),
+            Done::Sensitivity(x) => self.sensitivity.push(x),
         }
     }
-    // Below each floor (found above), the failed run again, traced where it failed.
+}
+
+/// Below each floor (found by the range searches), the failed run again, traced where it
+/// failed.
+fn zoom_floors(
+    base: &DriveConfig,
+    cmp: &Comparison,
+    threads: usize,
+) -> Result<Vec<floors::FloorZoom>, RunError> {
     let zooms = pool::map(&cmp.ranges, threads, None, |r| {
         let Some(v) = cmp.variants.iter().find(|x| x.label == r.strategy) else {
             return Ok(None);
@@ -780,11 +543,11 @@ pub fn compare(
         c.strategy = v.strategy.clone();
         floors::zoom(&c, v.plugin.as_ref(), r)
     });
+    let mut found = Vec::new();
     for z in zooms {
-        cmp.floor_zooms.extend(z?);
+        found.extend(z?);
     }
-    cmp.wall_s = wall.elapsed().as_secs_f64();
-    Ok(cmp)
+    Ok(found)
 }
 
 #[cfg(test)]

@@ -137,7 +137,7 @@ pub fn chart_marked(title: &str, x_label: &str, panels: &[Panel], marks: &[Vec<M
         W / 2.0,
         escape(title)
     );
-    let (x0, x1) = bounds(
+    let x = bounds(
         panels
             .iter()
             .flat_map(|p| p.series.iter().flat_map(|s| s.points.iter().map(|q| q.0))),
@@ -145,115 +145,20 @@ pub fn chart_marked(title: &str, x_label: &str, panels: &[Panel], marks: &[Vec<M
     let pw = W - LEFT - RIGHT;
     for (k, panel) in panels.iter().enumerate() {
         let top = TOP + k as f64 * (PANEL_H + GAP);
-        let (y0, y1) = bounds(
+        let y = bounds(
             panel
                 .series
                 .iter()
                 .flat_map(|s| s.points.iter().map(|q| q.1)),
         );
-        let px = |x: f64| LEFT + (x - x0) / (x1 - x0) * pw;
-        let py = |y: f64| top + PANEL_H - (y - y0) / (y1 - y0) * PANEL_H;
-        let _ = writeln!(
-            s,
-            r##"<rect x="{LEFT}" y="{top}" width="{pw}" height="{PANEL_H}" fill="none" stroke="#888"/>"##
-        );
-        let dy = tick_step(y1 - y0);
-        let mut y = (y0 / dy).ceil() * dy;
-        while y <= y1 {
-            let _ = writeln!(
-                s,
-                r##"<line x1="{LEFT}" x2="{0}" y1="{1:.1}" y2="{1:.1}" stroke="#eee"/><text x="{2}" y="{3:.1}" text-anchor="end">{4}</text>"##,
-                LEFT + pw,
-                py(y),
-                LEFT - 5.0,
-                py(y) + 4.0,
-                fmt_tick(y, dy)
-            );
-            y += dy;
-        }
-        let dx = tick_step(x1 - x0);
-        let mut x = (x0 / dx).ceil() * dx;
-        while x <= x1 {
-            let _ = writeln!(
-                s,
-                r##"<line x1="{0:.1}" x2="{0:.1}" y1="{1}" y2="{2}" stroke="#eee"/><text x="{0:.1}" y="{3}" text-anchor="middle">{4}</text>"##,
-                px(x),
-                top,
-                top + PANEL_H,
-                top + PANEL_H + 14.0,
-                fmt_tick(x, dx)
-            );
-            x += dx;
-        }
+        let f = Frame { top, x, y, pw };
+        grid(&mut s, &f);
         for m in marks.get(k).into_iter().flatten() {
-            if !(x0..=x1).contains(&m.x) {
-                continue;
-            }
-            let _ = writeln!(
-                s,
-                r##"<line x1="{0:.1}" x2="{0:.1}" y1="{1}" y2="{2}" stroke="#999" stroke-dasharray="3 3"/><text transform="translate({3:.1},{4}) rotate(-90)" text-anchor="end" font-size="10" fill="#555">{5}</text>"##,
-                px(m.x),
-                top,
-                top + PANEL_H,
-                px(m.x) - 3.0,
-                top + 4.0,
-                escape(&m.label)
-            );
+            mark(&mut s, &f, m);
         }
-        // A label longer than the panel is tall goes on two or more lines (a case name
-        // with its unit would otherwise run into the next panel's label).
-        let lines = wrap(&panel.y_label, LABEL_CHARS);
-        let _ = write!(
-            s,
-            r#"<text transform="translate({:.1},{}) rotate(-90)" text-anchor="middle">"#,
-            15.0 - 3.0 * (lines.len() - 1) as f64,
-            top + PANEL_H / 2.0,
-        );
-        for (j, line) in lines.iter().enumerate() {
-            let dy = if j == 0 { "0" } else { "1.2em" };
-            let _ = write!(s, r#"<tspan x="0" dy="{dy}">{}</tspan>"#, escape(line));
-        }
-        let _ = writeln!(s, "</text>");
+        y_label(&mut s, top, &panel.y_label);
         for (j, series) in panel.series.iter().enumerate() {
-            let color = COLORS[series.color.unwrap_or(j) % COLORS.len()];
-            let dash = series
-                .dash
-                .map_or(String::new(), |d| format!(r#" stroke-dasharray="{d}""#));
-            // One column a pixel of the plot's width: the file's weight is what the eye sees.
-            let points = min_max_per_column(&series.points, x0, x1, pw as usize);
-            let mut drawn = Vec::new();
-            for &(x, y) in &points {
-                // A step holds the previous level up to the new point's x.
-                if series.steps
-                    && let Some(&(_, y0)) = drawn.last()
-                {
-                    drawn.push((px(x), y0));
-                }
-                drawn.push((px(x), py(y)));
-            }
-            let d = path_data(&drawn);
-            let _ = writeln!(
-                s,
-                r#"<path d="{d}" fill="none" stroke="{color}" stroke-width="1.3"{dash}/>"#
-            );
-            // A lone point draws no line: mark it (a one-speed grid, a single run).
-            if let [(cx, cy)] = drawn[..] {
-                let _ = writeln!(
-                    s,
-                    r#"<circle cx="{cx:.1}" cy="{cy:.1}" r="4" fill="{color}"/>"#
-                );
-            }
-            let ly = top + 14.0 + 16.0 * j as f64;
-            let _ = writeln!(
-                s,
-                r#"<line x1="{0}" x2="{1}" y1="{2}" y2="{2}" stroke="{color}" stroke-width="2"{dash}/><text x="{3}" y="{4}">{5}</text>"#,
-                LEFT + pw + 10.0,
-                LEFT + pw + 30.0,
-                ly - 4.0,
-                LEFT + pw + 35.0,
-                ly,
-                escape(&series.name)
-            );
+            series_path(&mut s, &f, series, j);
         }
     }
     let _ = writeln!(
@@ -265,6 +170,148 @@ pub fn chart_marked(title: &str, x_label: &str, panels: &[Panel], marks: &[Vec<M
     );
     s.push_str("</svg>\n");
     s
+}
+
+/// A panel's place: its top \[px\], the x and y ranges it shows, the plot's width \[px\].
+#[derive(Copy, Clone)]
+struct Frame {
+    top: f64,
+    x: (f64, f64),
+    y: (f64, f64),
+    pw: f64,
+}
+
+impl Frame {
+    fn px(&self, x: f64) -> f64 {
+        LEFT + (x - self.x.0) / (self.x.1 - self.x.0) * self.pw
+    }
+
+    fn py(&self, y: f64) -> f64 {
+        self.top + PANEL_H - (y - self.y.0) / (self.y.1 - self.y.0) * PANEL_H
+    }
+}
+
+/// A panel's frame, grid lines and tick labels.
+fn grid(s: &mut String, f: &Frame) {
+    let Frame {
+        top,
+        x: (x0, x1),
+        y: (y0, y1),
+        pw,
+    } = *f;
+    let _ = writeln!(
+        s,
+        r##"<rect x="{LEFT}" y="{top}" width="{pw}" height="{PANEL_H}" fill="none" stroke="#888"/>"##
+    );
+    let dy = tick_step(y1 - y0);
+    let mut y = (y0 / dy).ceil() * dy;
+    while y <= y1 {
+        let _ = writeln!(
+            s,
+            r##"<line x1="{LEFT}" x2="{0}" y1="{1:.1}" y2="{1:.1}" stroke="#eee"/><text x="{2}" y="{3:.1}" text-anchor="end">{4}</text>"##,
+            LEFT + pw,
+            f.py(y),
+            LEFT - 5.0,
+            f.py(y) + 4.0,
+            fmt_tick(y, dy)
+        );
+        y += dy;
+    }
+    let dx = tick_step(x1 - x0);
+    let mut x = (x0 / dx).ceil() * dx;
+    while x <= x1 {
+        let _ = writeln!(
+            s,
+            r##"<line x1="{0:.1}" x2="{0:.1}" y1="{1}" y2="{2}" stroke="#eee"/><text x="{0:.1}" y="{3}" text-anchor="middle">{4}</text>"##,
+            f.px(x),
+            top,
+            top + PANEL_H,
+            top + PANEL_H + 14.0,
+            fmt_tick(x, dx)
+        );
+        x += dx;
+    }
+}
+
+/// A mark on a panel: a dashed line at its x, labelled up the line (none outside the
+/// panel's x range).
+fn mark(s: &mut String, f: &Frame, m: &Mark) {
+    let (top, (x0, x1)) = (f.top, f.x);
+    if !(x0..=x1).contains(&m.x) {
+        return;
+    }
+    let _ = writeln!(
+        s,
+        r##"<line x1="{0:.1}" x2="{0:.1}" y1="{1}" y2="{2}" stroke="#999" stroke-dasharray="3 3"/><text transform="translate({3:.1},{4}) rotate(-90)" text-anchor="end" font-size="10" fill="#555">{5}</text>"##,
+        f.px(m.x),
+        top,
+        top + PANEL_H,
+        f.px(m.x) - 3.0,
+        top + 4.0,
+        escape(&m.label)
+    );
+}
+
+/// A panel's y label, up its left side.
+fn y_label(s: &mut String, top: f64, y_label: &str) {
+    // A label longer than the panel is tall goes on two or more lines (a case name
+    // with its unit would otherwise run into the next panel's label).
+    let lines = wrap(y_label, LABEL_CHARS);
+    let _ = write!(
+        s,
+        r#"<text transform="translate({:.1},{}) rotate(-90)" text-anchor="middle">"#,
+        15.0 - 3.0 * (lines.len() - 1) as f64,
+        top + PANEL_H / 2.0,
+    );
+    for (j, line) in lines.iter().enumerate() {
+        let dy = if j == 0 { "0" } else { "1.2em" };
+        let _ = write!(s, r#"<tspan x="0" dy="{dy}">{}</tspan>"#, escape(line));
+    }
+    let _ = writeln!(s, "</text>");
+}
+
+/// A series on a panel, its `j`th: the path (a dot for a lone point) and its legend.
+fn series_path(s: &mut String, f: &Frame, series: &Series, j: usize) {
+    let (top, (x0, x1), pw) = (f.top, f.x, f.pw);
+    let color = COLORS[series.color.unwrap_or(j) % COLORS.len()];
+    let dash = series
+        .dash
+        .map_or(String::new(), |d| format!(r#" stroke-dasharray="{d}""#));
+    // One column a pixel of the plot's width: the file's weight is what the eye sees.
+    let points = min_max_per_column(&series.points, x0, x1, pw as usize);
+    let mut drawn = Vec::new();
+    for &(x, y) in &points {
+        // A step holds the previous level up to the new point's x.
+        if series.steps
+            && let Some(&(_, y0)) = drawn.last()
+        {
+            drawn.push((f.px(x), y0));
+        }
+        drawn.push((f.px(x), f.py(y)));
+    }
+    let d = path_data(&drawn);
+    let _ = writeln!(
+        s,
+        r#"<path d="{d}" fill="none" stroke="{color}" stroke-width="1.3"{dash}/>"#
+    );
+    // A lone point draws no line: mark it (a one-speed grid, a single run).
+    if let [(cx, cy)] = drawn[..] {
+        let _ = writeln!(
+            s,
+            r#"<circle cx="{cx:.1}" cy="{cy:.1}" r="4" fill="{color}"/>"#
+        );
+    }
+    let ly = top + 14.0 + 16.0 * j as f64;
+    let _ = writeln!(
+        s,
+        r#"<line x1="{0}" x2="{1}" y1="{2}" y2="{2}" stroke="{color}" stroke-width="2"{dash}/><text x="{3}" y="{4}">{5}</text>"#,
+        LEFT + pw + 10.0,
+        LEFT + pw + 30.0,
+        ly - 4.0,
+        LEFT + pw + 35.0,
+        ly,
+        escape(&series.name)
+    );
 }
 
 /// SVG path data through `points` (pixels): the first absolute, the others relative to

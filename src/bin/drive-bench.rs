@@ -6,7 +6,7 @@ use bldc_drive::bench::{
 };
 use bldc_drive::case::{Case, apply, choose};
 use bldc_drive::plots;
-use bldc_drive::scenario::{self, TraceRow, TraceSpec};
+use bldc_drive::scenario::{self, Outcome, Scenario, Summary, TraceRow, TraceSpec};
 use bldc_drive::scenario_file::RunRecord;
 use bldc_drive::strategies::{PluginLibrary, StrategyName};
 use bldc_drive::sweep;
@@ -238,51 +238,7 @@ fn run(cli: Cli) -> Result<i32, String> {
             strategy,
             config,
             json,
-        }) => {
-            let mut cfg = load_config(config.as_deref())?;
-            let plugin = apply(choose(&strategy, &plugins).map_err(|e| e.0)?, &mut cfg);
-            cfg.validate().map_err(|e| e.to_string())?;
-            check_outputs(json.iter().map(|p| Output::file("--json", p)))?;
-            let mut found = Vec::new();
-            // The two meters' searches side by side.
-            let meters = [range::Meter::WIDE, range::Meter::AS_PUBLISHED];
-            let searched = pool::map(&meters, pool::default_threads(), Some("range"), |m| {
-                range::search(&m.apply(&cfg), plugin.as_ref(), &strategy, m.label)
-            });
-            for r in searched {
-                let r = r.map_err(|e| e.to_string())?;
-                let bound = |rpm: Option<f64>, l: &Option<range::Limit>| {
-                    let at = rpm.map_or("none".into(), |x| format!("{x:.0} rpm"));
-                    match l {
-                        Some(l) => {
-                            format!("{at} (at {:.0} rpm: {}: {})", l.rpm, l.verdict, l.reason)
-                        }
-                        None => at,
-                    }
-                };
-                println!(
-                    "{}, meter {}: ({} runs)\n  floor {}\n  top {}",
-                    r.strategy,
-                    r.meter,
-                    r.tried.len(),
-                    bound(r.min_rpm, &r.min_limit),
-                    bound(r.max_rpm, &r.max_limit),
-                );
-                if !r.gaps_rpm.is_empty() {
-                    println!(
-                        "  failed inside the range (not one interval): {:?} rpm",
-                        r.gaps_rpm
-                    );
-                }
-                found.push(r);
-            }
-            println!("criterion: {}", range::CRITERION);
-            let r = found;
-            if let Some(p) = json {
-                write(&p, &to_json(&r)?)?;
-            }
-            Ok(0)
-        }
+        }) => range_cmd(&strategy, config.as_deref(), json, &plugins),
         Some(Cmd::CalibrateLm { config, json }) => {
             let cfg = load_config(config.as_deref())?;
             check_outputs(json.iter().map(|p| Output::file("--json", p)))?;
@@ -300,17 +256,7 @@ fn run(cli: Cli) -> Result<i32, String> {
             threads,
         }) => sensitivity(config.as_deref(), &out, threads).map(|()| 0),
         Some(Cmd::List) => {
-            for n in StrategyName::ALL {
-                println!("{n}");
-            }
-            for p in &plugins {
-                println!(
-                    "{}\t(plugin {}: {})",
-                    p.name(),
-                    p.path().display(),
-                    p.description()
-                );
-            }
+            list(&plugins);
             Ok(0)
         }
         Some(Cmd::Tune {
@@ -319,54 +265,132 @@ fn run(cli: Cli) -> Result<i32, String> {
             to_rpm,
             write: out,
             json,
-        }) => {
-            let cfg = load_config(config.as_deref())?;
-            check_outputs(
-                (out.iter().map(|p| Output::file("--write", p)))
-                    .chain(json.iter().map(|p| Output::file("--json", p))),
-            )?;
-            let to_rpm = match to_rpm {
-                Some(r) => r,
-                None => {
-                    0.8 * tune::LoopModel::new(&cfg)
-                        .map_err(|e| e.to_string())?
-                        .no_load_rpm()
-                }
-            };
-            let t = tune::tune(&cfg, from_rpm, to_rpm).map_err(|e| e.to_string())?;
-            // A closed stdout (a pager quit) ends the listing, not the program.
-            let mut o = std::io::stdout().lock();
-            let _ = writeln!(
-                o,
-                "    rpm   duty  k'  current pole  crossover rad/s  phase margin °  gain margin dB"
-            );
-            for m in &t.margins {
-                let opt = |x: Option<f64>| x.map_or("-".into(), |v| format!("{v:.1}"));
-                let _ = writeln!(
-                    o,
-                    "{:7.0} {:6.3} {:3} {:13.3} {:>16} {:>15} {:>15}",
-                    m.rpm,
-                    m.duty,
-                    m.meter_periods,
-                    m.current_pole,
-                    opt(m.crossover_rad_s),
-                    opt(m.phase_margin_deg),
-                    opt(m.gain_margin_db)
-                );
-            }
-            let _ = write!(o, "{}", t.to_toml());
-            if let Some(p) = &out {
-                write(p, &t.apply(&cfg).to_toml())?;
-            }
-            if let Some(p) = &json {
-                write(p, &to_json(&t)?)?;
-            }
-            Ok(0)
-        }
+        }) => tune_cmd(config.as_deref(), from_rpm, to_rpm, out, json),
         Some(Cmd::Config) => {
             print!("{}", DriveConfig::default().to_toml_documented());
             Ok(0)
         }
+    }
+}
+
+/// `drive-bench range`: the strategy's speed range with each meter, printed, and saved
+/// as JSON if asked.
+fn range_cmd(
+    strategy: &str,
+    config: Option<&Path>,
+    json: Option<PathBuf>,
+    plugins: &[PluginLibrary],
+) -> Result<i32, String> {
+    let mut cfg = load_config(config)?;
+    let plugin = apply(choose(strategy, plugins).map_err(|e| e.0)?, &mut cfg);
+    cfg.validate().map_err(|e| e.to_string())?;
+    check_outputs(json.iter().map(|p| Output::file("--json", p)))?;
+    let mut found = Vec::new();
+    // The two meters' searches side by side.
+    let meters = [range::Meter::WIDE, range::Meter::AS_PUBLISHED];
+    let searched = pool::map(&meters, pool::default_threads(), Some("range"), |m| {
+        range::search(&m.apply(&cfg), plugin.as_ref(), strategy, m.label)
+    });
+    for r in searched {
+        let r = r.map_err(|e| e.to_string())?;
+        let bound = |rpm: Option<f64>, l: &Option<range::Limit>| {
+            let at = rpm.map_or("none".into(), |x| format!("{x:.0} rpm"));
+            match l {
+                Some(l) => {
+                    format!("{at} (at {:.0} rpm: {}: {})", l.rpm, l.verdict, l.reason)
+                }
+                None => at,
+            }
+        };
+        println!(
+            "{}, meter {}: ({} runs)\n  floor {}\n  top {}",
+            r.strategy,
+            r.meter,
+            r.tried.len(),
+            bound(r.min_rpm, &r.min_limit),
+            bound(r.max_rpm, &r.max_limit),
+        );
+        if !r.gaps_rpm.is_empty() {
+            println!(
+                "  failed inside the range (not one interval): {:?} rpm",
+                r.gaps_rpm
+            );
+        }
+        found.push(r);
+    }
+    println!("criterion: {}", range::CRITERION);
+    let r = found;
+    if let Some(p) = json {
+        write(&p, &to_json(&r)?)?;
+    }
+    Ok(0)
+}
+
+/// `drive-bench tune`: the speed loop's margins over the range, the tuned gains printed,
+/// written as a config and saved as JSON if asked.
+fn tune_cmd(
+    config: Option<&Path>,
+    from_rpm: f64,
+    to_rpm: Option<f64>,
+    out: Option<PathBuf>,
+    json: Option<PathBuf>,
+) -> Result<i32, String> {
+    let cfg = load_config(config)?;
+    check_outputs(
+        (out.iter().map(|p| Output::file("--write", p)))
+            .chain(json.iter().map(|p| Output::file("--json", p))),
+    )?;
+    let to_rpm = match to_rpm {
+        Some(r) => r,
+        None => {
+            0.8 * tune::LoopModel::new(&cfg)
+                .map_err(|e| e.to_string())?
+                .no_load_rpm()
+        }
+    };
+    let t = tune::tune(&cfg, from_rpm, to_rpm).map_err(|e| e.to_string())?;
+    // A closed stdout (a pager quit) ends the listing, not the program.
+    let mut o = std::io::stdout().lock();
+    let _ = writeln!(
+        o,
+        "    rpm   duty  k'  current pole  crossover rad/s  phase margin °  gain margin dB"
+    );
+    for m in &t.margins {
+        let opt = |x: Option<f64>| x.map_or("-".into(), |v| format!("{v:.1}"));
+        let _ = writeln!(
+            o,
+            "{:7.0} {:6.3} {:3} {:13.3} {:>16} {:>15} {:>15}",
+            m.rpm,
+            m.duty,
+            m.meter_periods,
+            m.current_pole,
+            opt(m.crossover_rad_s),
+            opt(m.phase_margin_deg),
+            opt(m.gain_margin_db)
+        );
+    }
+    let _ = write!(o, "{}", t.to_toml());
+    if let Some(p) = &out {
+        write(p, &t.apply(&cfg).to_toml())?;
+    }
+    if let Some(p) = &json {
+        write(p, &to_json(&t)?)?;
+    }
+    Ok(0)
+}
+
+/// `drive-bench list`: the built-in strategies, then the plugins'.
+fn list(plugins: &[PluginLibrary]) {
+    for n in StrategyName::ALL {
+        println!("{n}");
+    }
+    for p in plugins {
+        println!(
+            "{}\t(plugin {}: {})",
+            p.name(),
+            p.path().display(),
+            p.description()
+        );
     }
 }
 
@@ -438,6 +462,29 @@ fn sensitivity(config: Option<&Path>, out: &Path, threads: Option<u16>) -> Resul
 
 fn run_one(a: RunArgs, plugins: &[PluginLibrary]) -> Result<i32, String> {
     // Everything is checked before any file is touched or any time simulated.
+    let sc = run_scenario(&a, plugins)?;
+    check_run_outputs(&a)?;
+    let out = simulate(&sc, a.trace.as_deref())?;
+    let s = &out.summary;
+    let text = run_text(&sc, s);
+    // A reader that went away (`| head`) is not an error of the run: the verdict still
+    // sets the exit status.
+    let _ = std::io::stdout().lock().write_all(text.as_bytes());
+    if let Some(p) = a.json {
+        write(&p, &RunRecord::of(&sc, s.clone()).to_json())?;
+    }
+    if let Some(d) = &a.plot {
+        let mut untraced = sc.clone();
+        untraced.trace = None;
+        for (name, svg) in plots::scenario_plots(&untraced, s).map_err(|e| e.to_string())? {
+            write(&d.join(name), &svg)?;
+        }
+    }
+    Ok(s.verdict.exit_code())
+}
+
+/// The scenario `drive-bench run` asks for, checked, with its trace's size.
+fn run_scenario(a: &RunArgs, plugins: &[PluginLibrary]) -> Result<Scenario, String> {
     let path = |p: &Option<PathBuf>| {
         p.as_ref()
             .map(|p| serde_json::Value::String(p.to_string_lossy().into_owned()))
@@ -476,6 +523,12 @@ fn run_one(a: RunArgs, plugins: &[PluginLibrary]) -> Result<i32, String> {
             ));
         }
     }
+    Ok(sc)
+}
+
+/// `drive-bench run`'s output files checked before the run: the trace, the JSON, the
+/// plots' folder and files.
+fn check_run_outputs(a: &RunArgs) -> Result<(), String> {
     let plot = a.plot.iter().map(|d| Output::folder("--plot", d));
     let plot: Vec<Output> = plot
         .flat_map(|f| {
@@ -487,8 +540,12 @@ fn run_one(a: RunArgs, plugins: &[PluginLibrary]) -> Result<i32, String> {
         (a.trace.iter().map(|p| Output::file("--trace", p)))
             .chain(a.json.iter().map(|p| Output::file("--json", p)))
             .chain(plot),
-    )?;
-    let mut trace = match &a.trace {
+    )
+}
+
+/// Runs `sc`, its trace rows written as CSV to `trace` if given, with a progress bar.
+fn simulate(sc: &Scenario, trace: Option<&Path>) -> Result<Outcome, String> {
+    let mut trace = match trace {
         Some(p) => {
             let f = std::fs::File::create(p).map_err(|e| format!("{}: {e}", p.display()))?;
             let mut w = BufWriter::new(f);
@@ -500,7 +557,7 @@ fn run_one(a: RunArgs, plugins: &[PluginLibrary]) -> Result<i32, String> {
     let mut write_err = None;
     let bar = bench::pool::bar("run", (sc.duration_s * 1e3).round() as u64, "ms simulated");
     let out = scenario::run_observed(
-        &sc,
+        sc,
         |row| {
             if let Some((_, w)) = trace.as_mut()
                 && write_err.is_none()
@@ -518,7 +575,12 @@ fn run_one(a: RunArgs, plugins: &[PluginLibrary]) -> Result<i32, String> {
             return Err(format!("{}: {e}", p.display()));
         }
     }
-    let s = &out.summary;
+    Ok(out)
+}
+
+/// The run's verdict and figures (the figures only as such when the verdict judges a
+/// drive that settled), and where the rotor was lost.
+fn run_text(sc: &Scenario, s: &Summary) -> String {
     let figures = format!(
         "mean {:.1} rpm, ripple {:.2} rpm, torque {:.4} mN·m ± {:.4}, I rms {:.4} A, commutation error {:+.2}° mean / {:.2}° max over {} commutations, {} restarts ({:.1}× real time)",
         s.speed_mean_rpm,
@@ -549,20 +611,7 @@ fn run_one(a: RunArgs, plugins: &[PluginLibrary]) -> Result<i32, String> {
             sc.verdict_rule.sync_error_deg
         ));
     }
-    // A reader that went away (`| head`) is not an error of the run: the verdict still
-    // sets the exit status.
-    let _ = std::io::stdout().lock().write_all(text.as_bytes());
-    if let Some(p) = a.json {
-        write(&p, &RunRecord::of(&sc, s.clone()).to_json())?;
-    }
-    if let Some(d) = &a.plot {
-        let mut untraced = sc.clone();
-        untraced.trace = None;
-        for (name, svg) in plots::scenario_plots(&untraced, s).map_err(|e| e.to_string())? {
-            write(&d.join(name), &svg)?;
-        }
-    }
-    Ok(s.verdict.exit_code())
+    text
 }
 
 fn run_sweep(

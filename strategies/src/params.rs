@@ -277,6 +277,15 @@ impl Default for ControlParams {
 impl ControlParams {
     /// Checks every rule; the error names the first field that breaks one.
     pub fn validate(&self) -> Result<(), ParamError> {
+        self.check_loops()?;
+        self.check_start_up()?;
+        self.check_supervision()?;
+        self.check_meters()?;
+        Ok(())
+    }
+
+    /// The speed and current PIs: the command, gains, limits and anti-windup.
+    fn check_loops(&self) -> Result<(), ParamError> {
         check_range(
             "control.speed_ref_rpm",
             self.speed_ref_rpm,
@@ -346,6 +355,11 @@ impl ControlParams {
                 "must be in (0, 2] (above 2 each update over-corrects the integrator)",
             ));
         }
+        Ok(())
+    }
+
+    /// The start-up: alignment, open-loop ramp and hand-over.
+    fn check_start_up(&self) -> Result<(), ParamError> {
         if !(self.startup_duty > 0.0 && self.startup_duty <= 1.0) {
             return Err(ParamError::new(
                 "control.startup_duty",
@@ -402,6 +416,11 @@ impl ControlParams {
                 "must be in 120 <= x < 180 electrical degrees",
             ));
         }
+        Ok(())
+    }
+
+    /// Restarts and the supervisor.
+    fn check_supervision(&self) -> Result<(), ParamError> {
         check_range(
             "control.step_miss_s",
             self.step_miss_s,
@@ -472,6 +491,11 @@ impl ControlParams {
             1000.0,
             "must be in 2..=1000 crossings",
         )?;
+        Ok(())
+    }
+
+    /// The current reads, the gain schedule, the speed meter and the carrier.
+    fn check_meters(&self) -> Result<(), ParamError> {
         check_range(
             "control.current_reads",
             f64::from(self.current_reads),

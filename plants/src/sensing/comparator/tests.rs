@@ -228,6 +228,20 @@ struct Reference {
 }
 
 impl Reference {
+    /// At rest, with outputs `out`.
+    fn new(p: &ComparatorParams, seed: u64, out: [bool; 3]) -> Self {
+        Reference {
+            p: p.clone(),
+            seed,
+            y: [0.0; 3],
+            y_n: 0.0,
+            out,
+            ring: (0.0, 0.0),
+            ring_k: 0,
+            toggles: [Vec::new(), Vec::new(), Vec::new()],
+        }
+    }
+
     fn rot(&self, dt: f64) -> (f64, f64) {
         let m = (-dt / self.p.ring_decay_s).exp();
         let (s, c) = (TAU * self.p.ring_frequency_hz * dt).sin_cos();
@@ -306,13 +320,7 @@ impl Reference {
 #[test]
 fn the_scans_find_exactly_the_toggles_of_a_tick_by_tick_evaluation() {
     let p = ComparatorParams::default();
-    let mut rng = 0x2545_F491_4F6C_DD1Du64;
-    let mut next = move || {
-        rng ^= rng << 13;
-        rng ^= rng >> 7;
-        rng ^= rng << 17;
-        (rng >> 11) as f64 / (1u64 << 53) as f64
-    };
+    let mut next = uniform_draws(0x2545_F491_4F6C_DD1D);
     // Three runs with declarations: each draws other inputs and other declarations.
     let modes = [
         Mode::AllWatched,
@@ -326,21 +334,13 @@ fn the_scans_find_exactly_the_toggles_of_a_tick_by_tick_evaluation() {
         let seed = 11;
         let mut bank = ComparatorBank::new(&p, seed, &v, 0.0);
         let init = Abc::from_fn(|x| -p.offset_v.get(x) > 0.0).to_array();
-        let mut r = Reference {
-            p: p.clone(),
-            seed,
-            y: [0.0; 3],
-            y_n: 0.0,
-            out: init,
-            ring: (0.0, 0.0),
-            ring_k: 0,
-            toggles: [Vec::new(), Vec::new(), Vec::new()],
-        };
+        let mut r = Reference::new(&p, seed, init);
         let (mut t, mut cm) = (0.0, 0.0);
         let mut diff = [0.0; 3];
         let (mut reads, mut undecided_steps) = (0, 0);
         let mut read_from = Abc::splat(Ticks::ZERO);
         for step in 0..600 {
+            let what = format!("{mode:?}, step {step}");
             // A PWM edge now and then: the common mode jumps by up to ±6 V.
             if step % 4 == 3 {
                 let dv = 12.0 * (next() - 0.5);
@@ -350,25 +350,7 @@ fn the_scans_find_exactly_the_toggles_of_a_tick_by_tick_evaluation() {
             }
             let knot = |cm: f64, d: [f64; 3]| Knot::driven(Abc::from_array(d.map(|d| cm + d)), cm);
             let k0 = knot(cm, diff);
-            // Lengths from a tick to 80 µs, a fifth of them ending between ticks.
-            let mut h = (1.0 + (4000.0 * next() * next()).floor()) * TICK_S;
-            if next() < 0.2 {
-                h += 0.37 * TICK_S;
-            }
-            // Slow, fast or hovering inputs: the hovering ones stay undecidable at the
-            // ends of steps for a while, the fast ones cross within a step.
-            let scale = [0.0, 400.0, 3000.0][(3.0 * next()) as usize];
-            let slope = scale * (next() - 0.5); // V/s: 75 mV over 50 µs at most
-            // u jumps about its thresholds from step to step: it toggles in most steps
-            // and is seldom certain at their ends, so its undecided stretches are long.
-            let d1: [f64; 3] = std::array::from_fn(|j| {
-                if j == 0 {
-                    0.016 * (next() - 0.5)
-                } else {
-                    (diff[j] + slope * h + 4e-3 * (next() - 0.5)).clamp(-0.03, 0.03)
-                }
-            });
-            let cm1 = cm + 0.2 * (next() - 0.5);
+            let (h, d1, cm1) = draw_step(&mut next, cm, diff);
             let k1 = knot(cm1, d1);
             let watched = match mode {
                 Mode::AllWatched => ALL,
@@ -401,16 +383,8 @@ fn the_scans_find_exactly_the_toggles_of_a_tick_by_tick_evaluation() {
                         let mid = Ticks(first + ((k - first) as f64 * next()) as u64);
                         read_from = random_reads(&mut next, read_from, mid, 20e-6);
                         bank.declare(mid, watched, read_from);
-                        bank.catch_up(mid);
-                        let read = bank.outputs_at(mid).to_array();
-                        let q = mid.0.saturating_sub(p.delay().0);
-                        for (j, x) in Phase::ALL.into_iter().enumerate() {
-                            if watched.get(x) || read_from.get(x) <= mid {
-                                let want = r.output_at(j, q, init[j]);
-                                assert_eq!(read[j], want, "channel {j} at {mid:?}, step {step}");
-                                reads += 1;
-                            }
-                        }
+                        reads +=
+                            compare_reads(&mut bank, &r, init, mid, (watched, read_from), &what);
                     }
                     bank.truncate_at(Ticks(k));
                     cm += f * (cm1 - cm);
@@ -425,7 +399,6 @@ fn the_scans_find_exactly_the_toggles_of_a_tick_by_tick_evaluation() {
             };
             undecided_steps += usize::from(bank.dormant.iter().any(Option::is_some));
             let at = Ticks::at_or_after(t1).0;
-            let k = at.0.saturating_sub(p.delay().0);
             // Read at the step's end, and in a third of them again after a new
             // declaration there (as a controller tick's command would make).
             for again in [false, true] {
@@ -436,40 +409,104 @@ fn the_scans_find_exactly_the_toggles_of_a_tick_by_tick_evaluation() {
                     read_from = random_reads(&mut next, read_from, at, 100e-6);
                     bank.declare(at, watched, read_from);
                 }
-                bank.catch_up(at);
-                let read = bank.outputs_at(at).to_array();
-                for (j, x) in Phase::ALL.into_iter().enumerate() {
-                    if !watched.get(x) && read_from.get(x) > at {
-                        continue; // not decided
-                    }
-                    assert_eq!(
-                        read[j],
-                        r.output_at(j, k, init[j]),
-                        "{mode:?}: channel {j} read at tick {}, step {step}",
-                        at.0
-                    );
-                    reads += 1;
-                }
+                reads += compare_reads(&mut bank, &r, init, at, (watched, read_from), &what);
             }
             t = t1;
         }
-        let found: usize = r.toggles.iter().map(Vec::len).sum();
-        assert!(found > 300, "few toggles to compare: {found}");
-        if mode == Mode::Declared {
-            assert!(reads > 600, "{reads} reads");
-            assert!(
-                undecided_steps > 200,
-                "{undecided_steps} steps with undecided channels"
-            );
+        check_run(mode, &bank, &r, reads, undecided_steps);
+    }
+}
+
+/// Uniform draws in [0, 1) from a xorshift generator seeded with `rng`.
+fn uniform_draws(mut rng: u64) -> impl FnMut() -> f64 {
+    move || {
+        rng ^= rng << 13;
+        rng ^= rng >> 7;
+        rng ^= rng << 17;
+        (rng >> 11) as f64 / (1u64 << 53) as f64
+    }
+}
+
+/// A step of the drive-like sequence, drawn: its length \[s\], and at its end the
+/// terminals' differences from the common mode and the common mode \[V\].
+fn draw_step(next: &mut impl FnMut() -> f64, cm: f64, diff: [f64; 3]) -> (f64, [f64; 3], f64) {
+    // Lengths from a tick to 80 µs, a fifth of them ending between ticks.
+    let mut h = (1.0 + (4000.0 * next() * next()).floor()) * TICK_S;
+    if next() < 0.2 {
+        h += 0.37 * TICK_S;
+    }
+    // Slow, fast or hovering inputs: the hovering ones stay undecidable at the
+    // ends of steps for a while, the fast ones cross within a step.
+    let scale = [0.0, 400.0, 3000.0][(3.0 * next()) as usize];
+    let slope = scale * (next() - 0.5); // V/s: 75 mV over 50 µs at most
+    // u jumps about its thresholds from step to step: it toggles in most steps
+    // and is seldom certain at their ends, so its undecided stretches are long.
+    let d1: [f64; 3] = std::array::from_fn(|j| {
+        if j == 0 {
+            0.016 * (next() - 0.5)
         } else {
-            assert_eq!(reads, 1800);
-            assert_eq!(undecided_steps, 0);
+            (diff[j] + slope * h + 4e-3 * (next() - 0.5)).clamp(-0.03, 0.03)
         }
-        if mode == Mode::AllWatched {
-            for j in 0..3 {
-                let got: Vec<_> = bank.front.hist[j].toggles.iter().copied().collect();
-                assert_eq!(got, r.toggles[j], "channel {j}");
-            }
+    });
+    let cm1 = cm + 0.2 * (next() - 0.5);
+    (h, d1, cm1)
+}
+
+/// Reads `bank` at `at` (caught up to it) and compares every channel decided there
+/// (watched, or declared read by then) with the reference's output a delay earlier,
+/// `init` before its first toggle; returns how many were compared.
+fn compare_reads(
+    bank: &mut ComparatorBank,
+    r: &Reference,
+    init: [bool; 3],
+    at: Ticks,
+    (watched, read_from): (Abc<bool>, Abc<Ticks>),
+    what: &str,
+) -> usize {
+    let k = at.0.saturating_sub(r.p.delay().0);
+    bank.catch_up(at);
+    let read = bank.outputs_at(at).to_array();
+    let mut reads = 0;
+    for (j, x) in Phase::ALL.into_iter().enumerate() {
+        if !watched.get(x) && read_from.get(x) > at {
+            continue; // not decided
+        }
+        assert_eq!(
+            read[j],
+            r.output_at(j, k, init[j]),
+            "{what}: channel {j} read at tick {}",
+            at.0
+        );
+        reads += 1;
+    }
+    reads
+}
+
+/// A run of the sequence compared enough (toggles, reads, undecided stretches), and with
+/// every channel watched, the bank's toggles are the reference's.
+fn check_run(
+    mode: Mode,
+    bank: &ComparatorBank,
+    r: &Reference,
+    reads: usize,
+    undecided_steps: usize,
+) {
+    let found: usize = r.toggles.iter().map(Vec::len).sum();
+    assert!(found > 300, "few toggles to compare: {found}");
+    if mode == Mode::Declared {
+        assert!(reads > 600, "{reads} reads");
+        assert!(
+            undecided_steps > 200,
+            "{undecided_steps} steps with undecided channels"
+        );
+    } else {
+        assert_eq!(reads, 1800);
+        assert_eq!(undecided_steps, 0);
+    }
+    if mode == Mode::AllWatched {
+        for j in 0..3 {
+            let got: Vec<_> = bank.front.hist[j].toggles.iter().copied().collect();
+            assert_eq!(got, r.toggles[j], "channel {j}");
         }
     }
 }
@@ -490,16 +527,7 @@ fn a_channel_undecided_over_more_steps_than_are_recorded_is_decided_exactly() {
     let mut differs = 0;
     for seed in 1..=12 {
         let mut bank = ComparatorBank::new(&p, seed, &Abc::splat(0.0), 0.0);
-        let mut r = Reference {
-            p: p.clone(),
-            seed,
-            y: [0.0; 3],
-            y_n: 0.0,
-            out: [false; 3],
-            ring: (0.0, 0.0),
-            ring_k: 0,
-            toggles: [Vec::new(), Vec::new(), Vec::new()],
-        };
+        let mut r = Reference::new(&p, seed, [false; 3]);
         for step in 0..n {
             let t = step as f64 * h;
             let now = Ticks::at_or_after(t).0;
