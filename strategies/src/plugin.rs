@@ -147,6 +147,52 @@ fn text(p: *const c_char, what: &str, path: &Path) -> Result<String, PluginError
         })
 }
 
+/// The plugin's vtable, checked: a whole number of pointers, at least ABI 1.0's, none of
+/// those eight null. What a plugin of an older minor lacks is `None`.
+///
+/// # Safety
+/// `header` points to a header of this ABI major whose vtable holds `size` bytes.
+unsafe fn vtable_of(header: *const abi::Header, size: usize) -> Result<abi::VTable, String> {
+    if size < abi::VTABLE_1_0 {
+        return Err(format!(
+            "vtable of {size} bytes, ABI {}.0 requires {}",
+            abi::ABI_MAJOR,
+            abi::VTABLE_1_0
+        ));
+    }
+    let ptr = std::mem::size_of::<usize>();
+    if size % ptr != 0 {
+        return Err(format!(
+            "vtable of {size} bytes (rule: a whole number of {ptr}-byte function pointers)"
+        ));
+    }
+    // The table as raw pointers first: a C plugin can leave an entry NULL, which the
+    // 1.0 functions' Rust types (never null) must not hold.
+    let mut raw = [std::ptr::null::<std::ffi::c_void>(); VTABLE_ENTRIES];
+    // SAFETY: the plugin's table holds `size` bytes (at least the 1.0 functions), a
+    // whole number of pointers; what it lacks stays null (None).
+    unsafe {
+        let src = std::ptr::addr_of!((*header).vtable).cast::<u8>();
+        let n = size.min(std::mem::size_of_val(&raw));
+        std::ptr::copy_nonoverlapping(src, raw.as_mut_ptr().cast::<u8>(), n);
+    }
+    if let Some(k) = raw[..abi::VTABLE_1_0 / ptr]
+        .iter()
+        .position(|f| f.is_null())
+    {
+        return Err(format!(
+            "vtable entry `{}` is a null pointer (rule: the eight ABI {}.0 functions, create to step, are all given)",
+            VTABLE_NAMES[k],
+            abi::ABI_MAJOR
+        ));
+    }
+    // SAFETY: same size and layout (asserted at compile time beside VTABLE_NAMES); those
+    // that are not Options were checked non-null above.
+    Ok(unsafe {
+        std::mem::transmute::<[*const std::ffi::c_void; VTABLE_ENTRIES], abi::VTable>(raw)
+    })
+}
+
 impl PluginLibrary {
     /// Loads `path` and checks its header: magic, then ABI version, then the rest.
     pub fn load(path: &Path) -> Result<Self, PluginError> {
@@ -208,44 +254,8 @@ impl PluginLibrary {
                 std::ptr::addr_of!((*header).vtable_size).read_unaligned() as usize,
             )
         };
-        if size < abi::VTABLE_1_0 {
-            return Err(bad(format!(
-                "vtable of {size} bytes, ABI {}.0 requires {}",
-                abi::ABI_MAJOR,
-                abi::VTABLE_1_0
-            )));
-        }
-        let ptr = std::mem::size_of::<usize>();
-        if size % ptr != 0 {
-            return Err(bad(format!(
-                "vtable of {size} bytes (rule: a whole number of {ptr}-byte function pointers)"
-            )));
-        }
-        // The table as raw pointers first: a C plugin can leave an entry NULL, which the
-        // 1.0 functions' Rust types (never null) must not hold.
-        let mut raw = [std::ptr::null::<std::ffi::c_void>(); VTABLE_ENTRIES];
-        // SAFETY: the plugin's table holds `size` bytes (at least the 1.0 functions), a
-        // whole number of pointers; what it lacks stays null (None).
-        unsafe {
-            let src = std::ptr::addr_of!((*header).vtable).cast::<u8>();
-            let n = size.min(std::mem::size_of_val(&raw));
-            std::ptr::copy_nonoverlapping(src, raw.as_mut_ptr().cast::<u8>(), n);
-        }
-        if let Some(k) = raw[..abi::VTABLE_1_0 / ptr]
-            .iter()
-            .position(|f| f.is_null())
-        {
-            return Err(bad(format!(
-                "vtable entry `{}` is a null pointer (rule: the eight ABI {}.0 functions, create to step, are all given)",
-                VTABLE_NAMES[k],
-                abi::ABI_MAJOR
-            )));
-        }
-        // SAFETY: same size and layout (checked at compile time below); the entries that
-        // are not Options are non-null.
-        let vtable = unsafe {
-            std::mem::transmute::<[*const std::ffi::c_void; VTABLE_ENTRIES], abi::VTable>(raw)
-        };
+        // SAFETY: non-null, magic and major checked: the header has this major's layout.
+        let vtable = unsafe { vtable_of(header, size) }.map_err(bad)?;
         let name = text(name_p, "name", path)?;
         if name.is_empty() {
             return Err(bad("empty name".into()));
