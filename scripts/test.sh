@@ -35,10 +35,11 @@ if [ -z "${LIBCLANG_PATH:-}" ]; then
     export LIBCLANG_PATH
     export BINDGEN_EXTRA_CLANG_ARGS="-I$(gcc -print-file-name=include)"
 fi
-# The FMU is built with the wheel's profile (release speed, no LTO): the workspace is then
-# compiled once for both, and the fmu crate's tests package the same build (xtask reads
-# FMU_PROFILE). What ships (`cargo xtask fmu`) is the release profile's, with fat LTO.
-export FMU_PROFILE=wheel
+# The FMU is built with the dev profile, which the test profile inherits unchanged
+# (Cargo.toml): the workspace is compiled once for the FMU, the tests and the Python wheel,
+# and the fmu crate's tests package the same build (xtask reads FMU_PROFILE). What ships
+# (`cargo xtask fmu`) is the release profile's, with fat LTO.
+export FMU_PROFILE=dev
 stage "FMU (profile $FMU_PROFILE)"
 cargo xtask fmu >/dev/null
 # The Python package's tests need maturin, pytest, Dask, pandas, NumPy, pyarrow and
@@ -50,7 +51,7 @@ fi
 
 # The Python extension (bldc-drive-py) has no Rust tests (python/tests are its tests, run
 # below against the wheel): built here it only made a test executable with no test in it,
-# and compiled PyO3 a second time, under the test profile as well as the wheel's.
+# and compiled PyO3 a second time.
 stage "cargo test"
 cargo test --workspace --exclude bldc-drive-py --all-targets --locked "$@"
 # The API docs build without warnings (units in doc comments are written \[V\], not links).
@@ -74,14 +75,14 @@ stage "examples/fmu/speed_step.py"
 "$venv/bin/python" examples/fmu/speed_step.py target/fmu/BldcDrive.fmu
 
 # The Python package: its wheel, installed into the venv; its examples, tiny; then its
-# tests (against the drive-bench built above). The wheel is built with the `wheel` profile
-# (opt-level 3, no LTO, 16 codegen units): `--profile test` would reuse what cargo test
-# compiled, but cargo builds the selected crate in test mode under that profile, which
-# makes the extension a test executable that Python cannot load.
+# tests (against the drive-bench built above). The wheel is built with the dev profile,
+# like everything above, so only PyO3 and the extension are compiled here. (`--profile
+# test` would not do: cargo builds the selected crate in test mode under that name, which
+# makes the extension a test executable that Python cannot load.)
 stage "python: wheel"
 wheels=target/python-wheels
 rm -rf "$wheels"
-"$venv/bin/maturin" build --quiet --locked --profile wheel -m python/Cargo.toml \
+"$venv/bin/maturin" build --quiet --locked --profile dev -m python/Cargo.toml \
     -i "$venv/bin/python" -o "$wheels"
 "$venv/bin/pip" install --quiet --force-reinstall --no-deps "$wheels"/bldc_drive-*.whl
 for ex in "startup_montecarlo.py --samples 1 --duration-s 1.0" "speed_load_grid.py --speeds 2 --loads 2 --duration-s 0.5"; do

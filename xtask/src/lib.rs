@@ -23,9 +23,10 @@ pub fn target_dir() -> PathBuf {
 }
 
 /// The cargo profile the FMU is built with: `FMU_PROFILE` if set, else `release` (what
-/// ships: fat LTO, one codegen unit). scripts/test.sh sets `wheel`, the profile the Python
-/// wheel is built with, so CI compiles the workspace once for both at release speed
-/// without minutes of LTO; the drive's figures are the same, bit for bit (no fast-math).
+/// ships: fat LTO, one codegen unit). scripts/test.sh sets `dev` (optimised, and shared
+/// with the test profile and the test command's Python wheel), so CI compiles the
+/// workspace once for all three without minutes of LTO; the drive's figures are the same,
+/// bit for bit (no fast-math).
 pub fn fmu_profile() -> Result<String, String> {
     let p = std::env::var("FMU_PROFILE").unwrap_or_else(|_| "release".into());
     let ok = !p.is_empty()
