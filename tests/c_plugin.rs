@@ -9,23 +9,10 @@ use bldc_drive::drive::{DriveEngine, build_plugin, run_to};
 use bldc_drive::drive_core::Persist;
 use bldc_drive::strategies::{PluginError, PluginLibrary};
 use std::process::Command;
-use std::sync::Mutex;
 
 mod common;
 
-use common::plugins::{c_example, c_misbehaving};
-
-/// Serialises the tests that steer the misbehaving plugin through the environment.
-static ENV: Mutex<()> = Mutex::new(());
-
-fn with_mode<R>(mode: &str, f: impl FnOnce() -> R) -> R {
-    let _g = ENV.lock().unwrap_or_else(|e| e.into_inner());
-    // SAFETY: every reader of this variable runs under the same lock.
-    unsafe { std::env::set_var("BLDC_TEST_MISBEHAVE", mode) };
-    let r = f();
-    unsafe { std::env::remove_var("BLDC_TEST_MISBEHAVE") };
-    r
-}
+use common::plugins::{c_example, c_misbehaving, with_mode};
 
 fn engine(lib: &PluginLibrary, rpm: f64) -> DriveEngine {
     let mut cfg = DriveConfig::default();

@@ -2,7 +2,7 @@
 
 use std::path::PathBuf;
 use std::process::Command;
-use std::sync::OnceLock;
+use std::sync::{Mutex, OnceLock};
 
 /// Builds the plugin crates with the test profile (sharing the test build's artifacts)
 /// and returns the folder holding the libraries. `c-example-plugin`'s build script
@@ -53,4 +53,19 @@ pub fn c_example() -> PathBuf {
 /// The C misbehaving test fixture (`c-misbehaving`).
 pub fn c_misbehaving() -> PathBuf {
     plugin_dir().join("libc_misbehaving.so")
+}
+
+/// Serialises the tests that steer the misbehaving fixtures through the environment.
+static ENV: Mutex<()> = Mutex::new(());
+
+/// Runs `f` with the misbehaving fixtures set to `mode` (`BLDC_TEST_MISBEHAVE`), one test
+/// at a time: the fixtures read the variable from their own code, outside std's lock of
+/// the environment. Kept out of the integration binary's tests, which set no variable.
+pub fn with_mode<R>(mode: &str, f: impl FnOnce() -> R) -> R {
+    let _g = ENV.lock().unwrap_or_else(|e| e.into_inner());
+    // SAFETY: every reader of this variable runs under the same lock.
+    unsafe { std::env::set_var("BLDC_TEST_MISBEHAVE", mode) };
+    let r = f();
+    unsafe { std::env::remove_var("BLDC_TEST_MISBEHAVE") };
+    r
 }
