@@ -61,6 +61,7 @@ static ENV: Mutex<()> = Mutex::new(());
 /// Runs `f` with the misbehaving fixtures set to `mode` (`BLDC_TEST_MISBEHAVE`), one test
 /// at a time: the fixtures read the variable from their own code, outside std's lock of
 /// the environment. Kept out of the integration binary's tests, which set no variable.
+#[allow(unsafe_code)] // setting the environment; crates that include this file deny unsafe
 pub fn with_mode<R>(mode: &str, f: impl FnOnce() -> R) -> R {
     let _g = ENV.lock().unwrap_or_else(|e| e.into_inner());
     // SAFETY: every reader of this variable runs under the same lock.
