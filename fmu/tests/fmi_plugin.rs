@@ -25,20 +25,28 @@ const STEPS: u32 = 3000; // 1.5 s
 const SAVE_AT_STEP: u32 = 1800;
 const OUTPUTS: [&str; 5] = ["speed_rpm", "i_u", "duty", "state", "speed_est_rpm"];
 
-/// The FMU with the example plugin packed as `resources/libexample_plugin.so` (its own
-/// file, so that the plain FMU other tests import is left alone), imported.
-fn import_with_plugin() -> Fmi2Import {
-    static FMU: OnceLock<Result<PathBuf, String>> = OnceLock::new();
-    let path = FMU.get_or_init(|| {
-        let out = xtask::target_dir()
-            .join("fmu")
-            .join("BldcDrive-example-plugin.fmu");
-        xtask::package_fmu_with(Some(&plugins::example()), &out)
+/// The FMU with `plugin` packed as `resources/<its file name>`, written once to
+/// `target/fmu/<file>` (its own file, so that the plain FMU other tests import is left
+/// alone), imported.
+fn import_packed(
+    fmu: &'static OnceLock<Result<PathBuf, String>>,
+    plugin: PathBuf,
+    file: &str,
+) -> Fmi2Import {
+    let path = fmu.get_or_init(|| {
+        let out = xtask::target_dir().join("fmu").join(file);
+        xtask::package_fmu_with(Some(&plugin), &out)
     });
     let path = path
         .as_ref()
-        .unwrap_or_else(|e| panic!("packaging the FMU with the plugin failed: {e}"));
+        .unwrap_or_else(|e| panic!("packaging the FMU with {} failed: {e}", plugin.display()));
     fmi::import::from_path(path).expect("the fmi crate imports the FMU")
+}
+
+/// The FMU with the example plugin packed as `resources/libexample_plugin.so`, imported.
+fn import_with_plugin() -> Fmi2Import {
+    static FMU: OnceLock<Result<PathBuf, String>> = OnceLock::new();
+    import_packed(&FMU, plugins::example(), "BldcDrive-example-plugin.fmu")
 }
 
 /// The name `strategy.plugin` gives the packed plugin: relative to the resources.
@@ -228,16 +236,7 @@ fn xtask_refuses_a_missing_or_invalid_plugin_before_packing() {
 /// compiler) packed, imported.
 fn import_with_c_plugin() -> Fmi2Import {
     static FMU: OnceLock<Result<PathBuf, String>> = OnceLock::new();
-    let path = FMU.get_or_init(|| {
-        let out = xtask::target_dir()
-            .join("fmu")
-            .join("BldcDrive-c-plugin-test.fmu");
-        xtask::package_fmu_with(Some(&plugins::c_example()), &out)
-    });
-    let path = path
-        .as_ref()
-        .unwrap_or_else(|e| panic!("packaging the FMU with the C plugin failed: {e}"));
-    fmi::import::from_path(path).expect("the fmi crate imports the FMU")
+    import_packed(&FMU, plugins::c_example(), "BldcDrive-c-plugin-test.fmu")
 }
 
 #[test]
