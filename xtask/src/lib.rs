@@ -52,7 +52,12 @@ fn profile_dir(profile: &str) -> PathBuf {
 
 /// Builds the library and the model-description tool, writes the FMU, returns its path.
 pub fn package_fmu() -> Result<PathBuf, String> {
-    package_fmu_with(None, &target_dir().join("fmu").join("BldcDrive.fmu"))
+    package_fmu_with(None, &fmu_path())
+}
+
+/// Where `cargo xtask fmu` writes the FMU unless told otherwise.
+pub fn fmu_path() -> PathBuf {
+    target_dir().join("fmu").join("BldcDrive.fmu")
 }
 
 /// As [`package_fmu`], to `out`, with the strategy plugin `plugin` packed as
