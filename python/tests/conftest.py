@@ -23,13 +23,27 @@ def need(module: str, pip_name: str):
         pytest.fail(f"{module} is missing: pip install {pip_name}")
 
 
+def _target() -> pathlib.Path:
+    """The cargo target folder: $CARGO_TARGET_DIR, else target/."""
+    return pathlib.Path(os.environ.get("CARGO_TARGET_DIR") or ROOT / "target")
+
+
+def _plugin(file: str, build: str) -> pathlib.Path:
+    """A plugin library the test command builds into the test profile's folder; `build`
+    says how when it is missing."""
+    lib = _target() / "debug" / file
+    if not lib.is_file():
+        pytest.fail(f"{lib} not found: build it ({build})")
+    return lib
+
+
 @pytest.fixture(scope="session")
 def drive_bench() -> pathlib.Path:
     """The drive-bench binary: $DRIVE_BENCH, else the newest one under the target folder
     ($CARGO_TARGET_DIR or target/)."""
     if os.environ.get("DRIVE_BENCH"):
         return pathlib.Path(os.environ["DRIVE_BENCH"])
-    target = pathlib.Path(os.environ.get("CARGO_TARGET_DIR") or ROOT / "target")
+    target = _target()
     found = [p for p in (target / d / "drive-bench" for d in ("debug", "release", "wheel")) if p.is_file()]
     if not found:
         pytest.fail(
@@ -43,23 +57,15 @@ def drive_bench() -> pathlib.Path:
 def example_plugin() -> pathlib.Path:
     """The example plugin library (strategy ``example-twelve-step-df``), built by the
     test command with the Rust tests' profile."""
-    target = pathlib.Path(os.environ.get("CARGO_TARGET_DIR") or ROOT / "target")
-    lib = target / "debug" / "libexample_plugin.so"
-    if not lib.is_file():
-        pytest.fail(f"{lib} not found: build it (cargo build --profile test -p example-plugin)")
-    return lib
+    return _plugin("libexample_plugin.so", "cargo build --profile test -p example-plugin")
 
 
 @pytest.fixture(scope="session")
 def c_plugin() -> pathlib.Path:
     """The C SDK's example plugin (strategy ``c-six-step``), compiled by the system C
     compiler when the test command builds plugins/c-example."""
-    target = pathlib.Path(os.environ.get("CARGO_TARGET_DIR") or ROOT / "target")
-    lib = target / "debug" / "libc_six_step.so"
-    if not lib.is_file():
-        pytest.fail(f"{lib} not found: build it (cargo build --profile test -p c-example-plugin; "
-                    "it needs a C compiler: apt-get install gcc)")
-    return lib
+    return _plugin("libc_six_step.so",
+                   "cargo build --profile test -p c-example-plugin; it needs a C compiler: apt-get install gcc")
 
 
 def cli(binary, *args, check=True):
