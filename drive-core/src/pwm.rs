@@ -129,6 +129,33 @@ impl PwmScheme for Complementary {
     }
 }
 
+/// Lone-switch chopping: the switch alone on its side chops. In a three-phase state with
+/// two legs high that is the low switch, in every other state the high switch(es), as the
+/// chip does. Why: under [`HighSideChop`] the two high legs both chop, and in an off-time
+/// each current freewheels through a diode, which stops at zero: the leg just switched
+/// on, carrying little current, is cut off where in the mirror state (two legs low, their
+/// switches on throughout) it is not, so alternate three-phase states give unequal
+/// torques. Chopping the lone switch makes every state the mirror image of its opposite,
+/// keeps the single-switch off-time (one diode freewheels, the shunt reads the on-time
+/// current only) and leaves the two-phase states, where the crossings are sensed, as the
+/// chip chops them.
+#[derive(Copy, Clone, Debug, Default)]
+pub struct LoneSwitchChop;
+
+impl PwmScheme for LoneSwitchChop {
+    fn gates(&self, pattern: &Pattern, on: bool) -> Gates {
+        let highs = [pattern.u, pattern.v, pattern.w]
+            .iter()
+            .filter(|&&s| s == LegState::High)
+            .count();
+        if highs == 2 {
+            LowSideChop.gates(pattern, on)
+        } else {
+            HighSideChop.gates(pattern, on)
+        }
+    }
+}
+
 /// The built-in schemes by name, for configs and front ends (`[power_stage] pwm_scheme`).
 #[derive(Copy, Clone, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
@@ -140,22 +167,27 @@ pub enum PwmSchemeKind {
     LowSideChop,
     /// [`Complementary`]; needs a dead time to be safe.
     Complementary,
+    /// [`LoneSwitchChop`].
+    LoneSwitchChop,
 }
 
 impl PwmSchemeKind {
     /// Every built-in scheme, in a fixed order.
-    pub const ALL: [PwmSchemeKind; 3] = [
+    pub const ALL: [PwmSchemeKind; 4] = [
         PwmSchemeKind::HighSideChop,
         PwmSchemeKind::LowSideChop,
         PwmSchemeKind::Complementary,
+        PwmSchemeKind::LoneSwitchChop,
     ];
 
-    /// The config name (`high-side-chop`, `low-side-chop`, `complementary`).
+    /// The config name (`high-side-chop`, `low-side-chop`, `complementary`,
+    /// `lone-switch-chop`).
     pub fn name(self) -> &'static str {
         match self {
             PwmSchemeKind::HighSideChop => "high-side-chop",
             PwmSchemeKind::LowSideChop => "low-side-chop",
             PwmSchemeKind::Complementary => "complementary",
+            PwmSchemeKind::LoneSwitchChop => "lone-switch-chop",
         }
     }
 }
@@ -166,6 +198,7 @@ impl PwmScheme for PwmSchemeKind {
             PwmSchemeKind::HighSideChop => HighSideChop.gates(pattern, on),
             PwmSchemeKind::LowSideChop => LowSideChop.gates(pattern, on),
             PwmSchemeKind::Complementary => Complementary.gates(pattern, on),
+            PwmSchemeKind::LoneSwitchChop => LoneSwitchChop.gates(pattern, on),
         }
     }
 }
@@ -228,6 +261,57 @@ mod tests {
                 assert!(s.gates(&p, on).validate().is_ok());
             }
         }
+    }
+
+    /// Every three-phase pattern and its mirror image (high and low swapped) get mirrored
+    /// gates from lone-switch chopping, on and off; high-side chopping breaks that in the
+    /// off-time, which is the asymmetry the scheme exists to remove.
+    #[test]
+    fn lone_switch_chopping_mirrors_every_three_phase_state() {
+        let mirror = |s: LegState| match s {
+            LegState::High => LegState::Low,
+            LegState::Low => LegState::High,
+            LegState::Float => LegState::Float,
+        };
+        let swap = |g: Gates| Gates {
+            high: g.low,
+            low: g.high,
+        };
+        let legs = [LegState::High, LegState::Low];
+        let mut asymmetric_hsc = 0;
+        let states: Vec<(LegState, LegState, LegState)> = legs
+            .iter()
+            .flat_map(|&u| legs.iter().flat_map(move |&v| legs.map(|w| (u, v, w))))
+            .filter(|&(u, v, w)| !(u == v && v == w))
+            .collect();
+        assert_eq!(states.len(), 6);
+        for (u, v, w) in states {
+            let p = Abc { u, v, w };
+            let m = p.map(mirror);
+            for on in [false, true] {
+                let g = LoneSwitchChop.gates(&p, on);
+                assert!(g.validate().is_ok());
+                assert_eq!(swap(g), LoneSwitchChop.gates(&m, on), "{p:?} on={on}");
+                if swap(HighSideChop.gates(&p, on)) != HighSideChop.gates(&m, on) {
+                    asymmetric_hsc += 1;
+                }
+            }
+            // One switch chops: the lone one on its side.
+            let (on, off) = (
+                LoneSwitchChop.gates(&p, true),
+                LoneSwitchChop.gates(&p, false),
+            );
+            let changed = [
+                on.high.u != off.high.u,
+                on.high.v != off.high.v,
+                on.high.w != off.high.w,
+                on.low.u != off.low.u,
+                on.low.v != off.low.v,
+                on.low.w != off.low.w,
+            ];
+            assert_eq!(changed.iter().filter(|&&c| c).count(), 1, "{p:?}");
+        }
+        assert!(asymmetric_hsc > 0);
     }
 
     #[test]

@@ -258,7 +258,12 @@ mod tests {
         }
         assert_eq!(
             EnumType::PwmScheme.items(),
-            ["high_side_chop", "low_side_chop", "complementary"]
+            [
+                "high_side_chop",
+                "low_side_chop",
+                "complementary",
+                "lone_switch_chop"
+            ]
         );
     }
 
