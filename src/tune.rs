@@ -101,6 +101,9 @@ pub struct Tuned {
     pub align_current_a: f64,
     /// See `align_current_a`.
     pub start_phase_current_a: f64,
+    /// The hand-over's assumed first 60° time \[s\]: [`first_sector_s`] at
+    /// `start_phase_current_a`.
+    pub handover_t60_s: f64,
     /// The margins at each speed of the range.
     pub margins: Vec<Margins>,
 }
@@ -111,14 +114,15 @@ impl Tuned {
         format!(
             "[control]\nspeed_kp = {:.3e}\nspeed_ki = {:.3e}\ncurrent_kp = 0.0\ncurrent_ki = {:.1}\n\
              supervisor_no_load_rpm = {:.0}\nsupervisor_locked_rotor_a = {:.3}\n\
-             align_current_a = {:.3}\nstart_phase_current_a = {:.3}\n",
+             align_current_a = {:.3}\nstart_phase_current_a = {:.3}\nhandover_t60_s = {:.4}\n",
             self.speed_kp,
             self.speed_ki,
             self.current_ki,
             self.no_load_rpm,
             self.locked_rotor_a,
             self.align_current_a,
-            self.start_phase_current_a
+            self.start_phase_current_a,
+            self.handover_t60_s
         )
     }
 
@@ -133,8 +137,21 @@ impl Tuned {
         c.control.supervisor_locked_rotor_a = self.locked_rotor_a;
         c.control.align_current_a = self.align_current_a;
         c.control.start_phase_current_a = self.start_phase_current_a;
+        c.control.handover_t60_s = self.handover_t60_s;
         c
     }
+}
+
+/// The time the rotor takes from rest through its first 60° electrical under the torque
+/// of a phase current `i` \[s\]: θ = ½·α·t² with α = p·Kt·i/J (friction left out, so a
+/// little short), t = √(2·(π/3)·J/(p·Kt·i)). The hand-over times the first commutations
+/// by it (`control.handover_t60_s`), rounded to 0.1 ms as `tune` prints it; a rotor that
+/// covers its first sectors faster than assumed leads the commutation by tens of degrees
+/// and passes crossings before their windows open (docs/chip.md, "Start-up").
+pub fn first_sector_s(model: &LoopModel, i: f64) -> f64 {
+    let alpha = model.pole_pairs * model.kt * i / model.j;
+    let t = (2.0 * (PI / 3.0) / alpha).sqrt();
+    ((t * 1e4).round() / 1e4).clamp(1e-4, 0.02)
 }
 
 /// Why `tune` found no gains.
@@ -372,9 +389,11 @@ pub fn tune(config: &DriveConfig, from_rpm: f64, to_rpm: f64) -> Result<Tuned, T
     let scale = (builtin.kt / model.kt) * (model.j / builtin.j);
     let start = ControlParams::default();
     let current = |a: f64| (a * scale).clamp(0.01, 10.0);
+    let start_phase_current_a = current(start.start_phase_current_a);
     Ok(Tuned {
         align_current_a: current(start.align_current_a),
-        start_phase_current_a: current(start.start_phase_current_a),
+        start_phase_current_a,
+        handover_t60_s: first_sector_s(&model, start_phase_current_a),
         speed_kp,
         speed_ki,
         current_ki: model.control.current_ki,

@@ -234,11 +234,13 @@ pub struct PowerStageParams {
     /// shunt), must exceed `control.current_limit_a` (`DriveConfig::validate`): with the
     /// other defaults below 0.5. It is part of the power circuit (its drop lifts the low rail).
     pub shunt_ohm: f64,
-    /// Dead time inserted before every switch turn-on \[s\]. Default 0 (the chip chops one
-    /// side only). Rule: 0..=10 µs; rounded to whole 20 ns ticks.
+    /// Dead time inserted before every switch turn-on \[s\]. Default 0 (one switch of a leg
+    /// chops, the other stays off). Rule: 0..=10 µs; rounded to whole 20 ns ticks.
     pub dead_time_s: f64,
-    /// Which switches chop (`high-side-chop`, `low-side-chop`, `complementary`). Default
-    /// `high-side-chop` (the chip's). Rule: `complementary` needs `dead_time_s > 0`, since
+    /// Which switches chop (`high-side-chop`, `low-side-chop`, `complementary`,
+    /// `lone-switch-chop`). Default `lone-switch-chop`, a designer's choice: the published
+    /// chip chops the high side only, whose diode freewheeling makes alternate three-phase
+    /// states unequal (docs/chip.md, "The chopping"). Rule: `complementary` needs `dead_time_s > 0`, since
     /// it turns one switch of a leg on as the other turns off. Used by the engine, not by
     /// the plant equations.
     pub pwm_scheme: PwmSchemeKind,
@@ -253,7 +255,7 @@ impl Default for PowerStageParams {
             diode_resistance_ohm: 0.05,
             shunt_ohm: 0.25,
             dead_time_s: 0.0,
-            pwm_scheme: PwmSchemeKind::HighSideChop,
+            pwm_scheme: PwmSchemeKind::LoneSwitchChop,
         }
     }
 }

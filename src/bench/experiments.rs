@@ -11,6 +11,7 @@ use crate::metrics::{disturbance, held_above, step_response};
 use crate::profile::{LoadProfile, Profile};
 use crate::scenario::{RunError, Scenario, TraceSpec, run, settled};
 use drive_core::pwm::PwmSchemeKind;
+use plants::params::PowerStageParams;
 use range::Range;
 use strategies::StrategyName;
 
@@ -59,13 +60,10 @@ pub(super) fn jobs(variants: &[Variant], plan: &Plan, study: usize) -> Vec<Job> 
                 jobs.push(Job::Drift(v, true));
             }
         }
-        let complementary = plan
-            .spectrum_complementary
-            .as_ref()
-            .is_some_and(|x| x.0 == variant.label);
+        let contrast = plan.spectrum_chopping.as_ref() == Some(&variant.label);
         for &rpm in &plan.spectrum_rpm {
             jobs.push(Job::Spectrum(v, rpm, false));
-            if complementary {
+            if contrast {
                 jobs.push(Job::Spectrum(v, rpm, true));
             }
         }
@@ -101,9 +99,7 @@ impl Bench<'_> {
                 let (point, trace) = self.grid(v, rpm)?;
                 Done::Grid(point, trace)
             }
-            Job::Spectrum(v, rpm, complementary) => {
-                Done::Spectrum(self.spectrum(v, rpm, complementary)?)
-            }
+            Job::Spectrum(v, rpm, contrast) => Done::Spectrum(self.spectrum(v, rpm, contrast)?),
             Job::Drift(v, matched) => Done::Drift(self.drift(v, matched)?),
             Job::Sensitivity(k) => Done::Sensitivity(sensitivity::run_job(&self.study[k])?),
             Job::Range(v, m) => Done::Range(range::search(
@@ -163,14 +159,13 @@ impl Bench<'_> {
         Ok((point, trace))
     }
 
-    /// A torque spectrum at `rpm`, with complementary chopping for the experiment.
-    fn spectrum(&self, v: usize, rpm: f64, complementary: bool) -> Result<SpectrumRun, RunError> {
+    /// A torque spectrum at `rpm`; `contrast`: with the other chopping, for the experiment.
+    fn spectrum(&self, v: usize, rpm: f64, contrast: bool) -> Result<SpectrumRun, RunError> {
         let plan = self.plan;
         let variant = &self.variants[v];
         let mut c = self.config_of(v);
-        if let (true, Some((_, dead_time_s))) = (complementary, &plan.spectrum_complementary) {
-            c.power_stage.pwm_scheme = PwmSchemeKind::Complementary;
-            c.power_stage.dead_time_s = *dead_time_s;
+        if contrast {
+            c.power_stage = contrast_chopping(&c.power_stage);
         }
         let mut sc = range::turned(&c, plan.trace_rpm, rpm, range::TURN_DOWN_S);
         sc.plugin = variant.plugin.clone();
@@ -202,6 +197,7 @@ impl Bench<'_> {
             variant: self.label(v),
             rpm,
             pwm_scheme: c.power_stage.pwm_scheme.name().to_string(),
+            contrast,
             summary: out.summary,
             spectrum,
         })
@@ -329,4 +325,15 @@ impl Bench<'_> {
             speed: out.speed,
         })
     }
+}
+
+/// The chopping experiment's scheme: the published chip's high-side chop, or against it
+/// lone-switch chopping (the shipped default), the other settings as configured.
+pub fn contrast_chopping(ps: &PowerStageParams) -> PowerStageParams {
+    let mut other = ps.clone();
+    other.pwm_scheme = match ps.pwm_scheme {
+        PwmSchemeKind::HighSideChop => PwmSchemeKind::LoneSwitchChop,
+        _ => PwmSchemeKind::HighSideChop,
+    };
+    other
 }

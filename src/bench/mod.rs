@@ -111,9 +111,9 @@ pub struct Plan {
     /// neutral's time constant set to the phase's): the experiment that names the early
     /// commutation at low speed.
     pub drift_matched: Option<String>,
-    /// The variant whose spectra are also taken with complementary chopping, and the
-    /// dead time that scheme needs \[s\]: the experiment that names the chopping's lines.
-    pub spectrum_complementary: Option<(String, f64)>,
+    /// The variant whose spectra are also taken with the other chopping
+    /// ([`experiments::contrast_chopping`]): the experiment that names the chopping's lines.
+    pub spectrum_chopping: Option<String>,
     /// The anti-windup comparison: runs that drive a PI into saturation.
     pub step: StepPlan,
     /// Load step: speed \[rpm\], torque [N·m], at \[s\], run length \[s\].
@@ -139,7 +139,7 @@ impl Default for Plan {
             spectrum_rpm: vec![1000.0, 3000.0],
             drift: true,
             drift_matched: Some("twelve-step-df".into()),
-            spectrum_complementary: Some(("twelve-step-df".into(), 200e-9)),
+            spectrum_chopping: Some("twelve-step-df".into()),
             step: StepPlan::default(),
             load: (3000.0, 4e-4, 2.5, 4.0),
             ranges: true,
@@ -399,8 +399,10 @@ pub struct SpectrumRun {
     pub variant: String,
     /// Speed command \[rpm\].
     pub rpm: f64,
-    /// The PWM scheme of the run (the config's, or complementary for the experiment).
+    /// The PWM scheme of the run.
     pub pwm_scheme: String,
+    /// Whether the run is the chopping experiment's (the other scheme than the config's).
+    pub contrast: bool,
     /// The run's summary (verdict, low-band ripple, commutation surge).
     pub summary: Summary,
     /// The spectrum (None: the run was not `running`, or too few turns).

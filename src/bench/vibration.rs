@@ -16,7 +16,7 @@ pub fn file_of(variant: &str) -> String {
 fn runs<'a>(c: &'a Comparison, variant: &'a str) -> impl Iterator<Item = &'a SpectrumRun> {
     c.spectra
         .iter()
-        .filter(move |r| r.variant == variant && r.pwm_scheme == "high-side-chop")
+        .filter(move |r| r.variant == variant && !r.contrast)
 }
 
 /// Steps per electrical turn of a variant's strategy, as its spectra were named.
@@ -241,9 +241,9 @@ fn orderings(c: &Comparison, s: &mut String) {
     );
 }
 
-/// The chopping experiment: the same strategy with complementary chopping.
+/// The chopping experiment: the same strategy with the other chopping.
 fn chopping(c: &Comparison, band_hz: f64, s: &mut String) {
-    let Some((label, dead_time_s)) = &c.plan.spectrum_complementary else {
+    let Some(label) = &c.plan.spectrum_chopping else {
         return;
     };
     let line3 = |r: &SpectrumRun| {
@@ -255,10 +255,11 @@ fn chopping(c: &Comparison, band_hz: f64, s: &mut String) {
                 .reduce(f64::max)
         })
     };
+    let config_scheme = runs(c, label).next().map_or("–", |r| r.pwm_scheme.as_str());
     let _ = writeln!(
         s,
-        "\n### The 3rd-order lines: single-switch chopping\n\nThe chip chops the high-side switch only: in a PWM off-time a phase's current freewheels through a diode, which stops conducting when that current reaches zero, and a three-phase step with two high-side switches on is not the mirror image of one with two low-side switches on. Alternate three-phase steps then differ, a pattern of 4 steps (order 3) in twelve-step, of 2 steps in six-step. With complementary chopping (the other switch of the chopped leg turned on in the off-time, {:.0} ns dead time, `power_stage.pwm_scheme = \"complementary\"`), the freewheeling current has a switch, not a diode, and the two kinds of step mirror each other. {label}:\n\n| rpm | scheme | verdict | LF ripple % | order-3 line % |\n|---:|---|---|---:|---:|",
-        dead_time_s * 1e9
+        "\n### The 3rd-order lines: the chopping\n\nThe published chip chops the high-side switch only: in a PWM off-time the chopped phase's current freewheels through a diode, which stops conducting when that current reaches zero, and a three-phase step with two high-side switches on is not the mirror image of one with two low-side switches on. Alternate three-phase steps then differ, a pattern of 4 steps (order 3) in twelve-step. Lone-switch chopping (`power_stage.pwm_scheme = \"lone-switch-chop\"`, the shipped default) chops the low switch in a state with two legs high and the high switch otherwise, so every state mirrors its opposite; the two-phase states, where the crossings are sensed, are chopped as the chip chops them (docs/chip.md, \"Chopping\"). Six-step has no three-phase state and is chopped alike by both. {label} with each (the config's scheme, `{}`, gives every other figure of this report):\n\n| rpm | scheme | verdict | LF ripple % | order-3 line % |\n|---:|---|---|---:|---:|",
+        config_scheme
     );
     for rpm in &c.plan.spectrum_rpm {
         for r in c
@@ -276,10 +277,6 @@ fn chopping(c: &Comparison, band_hz: f64, s: &mut String) {
             );
         }
     }
-    let _ = writeln!(
-        s,
-        "\nThe published chip chops one switch; complementary chopping is a power-stage option (it needs a dead time, and its own figures elsewhere in this report are not taken)."
-    );
 }
 
 #[cfg(test)]

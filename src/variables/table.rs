@@ -225,9 +225,9 @@ fn strategy() -> Vec<Variable> {
         int!("strategy.linear_region_deg", strategy.linear_region_deg, Some(1.0), Some(60.0),
             "Linear-region window before each expected crossing (nd; upper end of lm) [electrical degrees]"),
         int!("strategy.lm_speed_max_rpm", strategy.lm_speed_max_rpm, Z, Some(SPEED_CMD_MAX_RPM),
-            "ωM: speed from which lm uses the full window [rpm]; must exceed strategy.lm_speed_min_rpm: with the other defaults at least 505"),
+            "ωM: speed from which lm uses the full window [rpm]; must exceed strategy.lm_speed_min_rpm: with the other defaults at least 552"),
         int!("strategy.lm_speed_min_rpm", strategy.lm_speed_min_rpm, Z, Some(SPEED_CMD_MAX_RPM - 1.0),
-            "ωm: speed at and below which lm uses a 1° window [rpm]; must be below strategy.lm_speed_max_rpm: with the other defaults at most 13413"),
+            "ωm: speed at and below which lm uses a 1° window [rpm]; must be below strategy.lm_speed_max_rpm: with the other defaults at most 13429"),
         int!("strategy.filter_samples", strategy.filter_samples, Some(1.0), Some(64.0),
             "Flip-flops of the digital filter, clocked at 0.64 µs [count]"),
     ]

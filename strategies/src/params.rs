@@ -106,8 +106,12 @@ pub struct ControlParams {
     /// 0.000 327 68..=10.
     pub align_s: [f64; 3],
     /// Time the floating-phase crossing logic assumes for the first 60° after the hand-over
-    /// to closed loop, before it has measured one \[s\]. Default 0.015. Rule: 1e-5..=0.02
-    /// (the 15-bit 0.64 µs counter holds at most 20.97 ms).
+    /// to closed loop, before it has measured one \[s\]. Default 0.0119: the time the
+    /// rotor takes from rest through 60° under the start current's torque,
+    /// √(2·(π/3)·J/(p·Kt·i)), on the built-in motor at 0.55 A (`drive-bench tune` writes it
+    /// for a motor; `bldc_drive::tune::first_sector_s`). The published chip's 0.015 is that
+    /// time at ≈ 0.35 A. Rule: 1e-5..=0.02 (the 15-bit 0.64 µs counter holds at most
+    /// 20.97 ms).
     pub handover_t60_s: f64,
     /// Crossing confirmation from the hand-over until the first FG speed measurement
     /// [whole electrical degrees]: a crossing needs the post-crossing level to dominate
@@ -248,7 +252,7 @@ impl Default for ControlParams {
             align_current_a: 0.39,
             start_phase_current_a: 0.55,
             align_s: [0.7, 0.038, 0.015],
-            handover_t60_s: 0.015,
+            handover_t60_s: 0.0119,
             startup_confirm_deg: 2,
             startup_conduction_deg: 150.0,
             step_miss_s: 0.05,
@@ -669,17 +673,17 @@ pub struct StrategyParams {
     /// Linear-region window θZC before each expected crossing [whole electrical degrees]
     /// (`nd`; the upper end of `lm`). Default 15. Rule: 1..=60.
     pub linear_region_deg: u32,
-    /// ωM: speed from which `lm` uses the full window \[rpm\]. Default 13414: from
+    /// ωM: speed from which `lm` uses the full window \[rpm\]. Default 13430: from
     /// `drive-bench calibrate-lm` on the built-in motor, where a 14° window keeps
     /// synchronism up to the top speed 12 V allows, so the full window is never needed
-    /// below it and ωM is that top speed. Rule: > ωm (with the other defaults at least 505),
+    /// below it and ωM is that top speed. Rule: > ωm (with the other defaults at least 552),
     /// ≤ 16383.
     pub lm_speed_max_rpm: u32,
-    /// ωm: speed at and below which `lm` uses a 1° window \[rpm\]. Default 504: from
+    /// ωm: speed at and below which `lm` uses a 1° window \[rpm\]. Default 551: from
     /// `drive-bench calibrate-lm` on the built-in motor, the lowest speed a 1° window holds
     /// (below it the drive runs above the command, driven by the window's full-voltage
     /// time, which lasts until the detected crossing). Rule: < ωM (with the other defaults at
-    /// most 13413).
+    /// most 13429).
     pub lm_speed_min_rpm: u32,
     /// Flip-flops of the digital filter (3 in the chip), clocked at 0.64 µs. Default 3.
     /// Rule: 1..=64.
@@ -703,8 +707,8 @@ impl Default for StrategyParams {
             guard: None,
             conduction_angle_deg: None,
             linear_region_deg: 15,
-            lm_speed_max_rpm: 13414,
-            lm_speed_min_rpm: 504,
+            lm_speed_max_rpm: 13430,
+            lm_speed_min_rpm: 551,
             filter_samples: 3,
             lm_window_capped: true,
         }

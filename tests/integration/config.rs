@@ -164,12 +164,12 @@ fn a_combined_rule_names_every_key() {
     ] {
         assert!(err.contains(key), "error `{err}` must name `{key}`");
     }
-    // ωm's documented maximum against the default ωM = 13414.
+    // ωm's documented maximum against the default ωM = 13430.
     let err = DriveConfig::from_toml("[strategy]\nlm_speed_min_rpm = 16382\n")
         .unwrap_err()
         .to_string();
     assert!(
-        err.contains("`strategy.lm_speed_max_rpm` = 13414")
+        err.contains("`strategy.lm_speed_max_rpm` = 13430")
             && err.contains("strategy.lm_speed_min_rpm = 16382"),
         "{err}"
     );

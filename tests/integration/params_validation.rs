@@ -28,6 +28,9 @@ fn defaults_are_valid_and_published() {
     assert_eq!(p.motor.resistance_ohm, 2.2);
     assert_eq!(p.motor.inertia_kgm2, 17e-7);
     assert_eq!(p.power_stage.shunt_ohm, 0.25);
+    // A designer's choice beside the chip's high-side chop (docs/chip.md, "The chopping").
+    assert_eq!(p.power_stage.pwm_scheme, PwmSchemeKind::LoneSwitchChop);
+    assert_eq!(p.power_stage.dead_time_s, 0.0);
     assert_eq!(p.sensing.current.amplifier_gain, 80.0);
     assert_eq!(p.sensing.current.adc_bits, 12);
 }

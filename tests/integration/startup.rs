@@ -124,7 +124,7 @@ fn longest_lm_region(capped: bool) -> f64 {
     longest
 }
 
-/// LM's window from 3000 rpm − 10 % to + 9 % is θZC = 1 + 14·(ω − 504)/(13414 − 504) < 4°,
+/// LM's window from 3000 rpm − 10 % to + 9 % is θZC = 1 + 14·(ω − 551)/(13430 − 551) < 4°,
 /// so ≤ 3° in whole degrees, and a 60° interval at 2700 rpm with 6 pole pairs lasts
 /// 60/(36·2700) s = 617 µs, so a capped region lasts at most 3/60·617 µs = 31 µs (+ one 0.64 µs clock).
 /// Held to the detected crossing (the published chip), a region opened early after a
