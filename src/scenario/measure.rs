@@ -1,5 +1,5 @@
 //! What a run measures at the engine's stops, and the summary and verdict made of it at
-//! the end: the metrics half of [`super::run_observed`], kept apart from its schedule.
+//! the end: the metrics half of [`super::Run`], kept apart from its schedule.
 
 use super::{Outcome, Scenario, Summary};
 use crate::config::DriveConfig;
