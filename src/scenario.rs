@@ -3,6 +3,7 @@
 //! The library, `drive-bench run --scenario` (see [`crate::scenario_file`]) and the
 //! bench's own experiments all build this one type.
 
+mod fork;
 mod measure;
 mod runner;
 
@@ -12,6 +13,7 @@ use crate::profile::{LoadProfile, Profile};
 use crate::verdict::{VerdictRule, hold_window_from_s, shortest_hold_s};
 use drive_core::error::ParamError;
 use drive_core::{EngineError, Ticks};
+pub use fork::ForkError;
 pub use runner::Run;
 use serde::Serialize;
 use strategies::PluginLibrary;
@@ -502,6 +504,9 @@ pub enum RunError {
     /// The plugin could not be instantiated.
     #[error("{0}")]
     Build(#[from] BuildError),
+    /// A run could not be forked as the scenario asked for.
+    #[error("{0}")]
+    Fork(#[from] ForkError),
 }
 
 /// Runs `sc`, calling `on_row` for every trace row.

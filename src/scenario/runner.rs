@@ -1,5 +1,7 @@
-//! A run as a value: started, advanced to an instant of its schedule, finished.
-//! [`super::run_observed`] is [`Run::start`] then [`Run::finish`].
+//! A run as a value: started, advanced to an instant of its schedule, finished. Stopped at
+//! an instant it can be copied and continued under another schedule ([`Run::fork`], in
+//! `fork.rs`); [`super::run_observed`] is [`Run::start`] then [`Run::finish`], so a plain
+//! run and a forked one go through the same loop.
 
 use super::measure::Metrics;
 use super::{Outcome, RunError, Scenario, TraceRow, TraceSpec};
@@ -321,8 +323,19 @@ pub(super) enum Event {
 
 impl Event {
     /// A trace window's end: the engine's stop there is the trace's alone.
-    fn is_trace(self) -> bool {
+    pub(super) fn is_trace(self) -> bool {
         matches!(self, Event::TraceOn | Event::TraceOff)
+    }
+
+    /// The same change, values compared bit for bit.
+    pub(super) fn same(self, other: Event) -> bool {
+        use Event::*;
+        match (self, other) {
+            (Speed(a), Speed(b)) | (Supply(a), Supply(b)) => a.to_bits() == b.to_bits(),
+            (Load(k, a), Load(j, b)) => k == j && a.to_bits() == b.to_bits(),
+            (TraceOn, TraceOn) | (TraceOff, TraceOff) | (SteadyOn, SteadyOn) | (End, End) => true,
+            _ => false,
+        }
     }
 }
 
