@@ -12,8 +12,9 @@
 
 use super::pool;
 use super::range::{self, Limit, Meter};
+use super::seeded::Seeded;
 use crate::config::DriveConfig;
-use crate::scenario::{RunError, run, settled};
+use crate::scenario::RunError;
 use drive_core::error::ParamError;
 use serde::Serialize;
 use std::time::Instant;
@@ -301,17 +302,18 @@ pub fn run_job(job: &Job) -> Result<Point, RunError> {
     let c = &job.config;
     let (held, seed) = range::controllable(c, None, SEED_RPM)?;
     let (mut runs, mut sim_s) = (1, seed.sim_s);
+    // The floor's runs and the ripple run fork from one start-up at the seed.
+    let mut seeded = Seeded::new(c, None, SEED_RPM);
     let (floor_rpm, floor_limit) = if held {
-        let f = range::floor(c, None, SEED_RPM, RESOLUTION)?;
+        let f = range::floor(&mut seeded, RESOLUTION)?;
         runs += f.tried.len();
         sim_s += f.sim_s;
         (Some(f.rpm), f.limit)
     } else {
         (None, Some(range::limit(SEED_RPM, &seed)))
     };
-    let sc = range::turned(c, SEED_RPM, RIPPLE_RPM, range::TURN_DOWN_S);
     // Lengthened while its window still falls in the settling, as the range search does.
-    let s = settled(&sc, |s| run(s, |_| {}))?.1.summary;
+    let s = seeded.settled(RIPPLE_RPM)?.summary;
     runs += 1;
     sim_s += s.sim_s;
     let ripple_pct = s

@@ -4,7 +4,8 @@
 //! rotor. Scenarios that differ before the fork instant are refused with an error.
 
 use bldc_drive::DriveConfig;
-use bldc_drive::bench::range::{self, Meter, TURN_DOWN_S};
+use bldc_drive::bench::range::{self, Meter, TURN_DOWN_S, held_after_turn_down};
+use bldc_drive::bench::seeded::Seeded;
 use bldc_drive::profile::Profile;
 use bldc_drive::scenario::{ForkError, Run, RunError, Scenario, Summary, run};
 use bldc_drive::strategies::StrategyName;
@@ -128,6 +129,22 @@ fn runs_forked_at_the_turn_have_the_summaries_of_runs_from_standstill() {
     );
     // The comparison can fail: two different points differ in it.
     assert!(!differences(&summaries[0], &summaries[2]).is_empty());
+}
+
+#[test]
+fn a_seeded_bisection_point_is_the_point_run_from_standstill() {
+    // six-step-120 loses synchronism just below its floor (≈ 504 rpm).
+    let c = config(StrategyName::SixStep120);
+    let mut seeded = Seeded::new(&c, None, 3000.0);
+    for rpm in [492.0, 1200.0] {
+        let (ok, forked) = seeded.held(rpm).expect("runs");
+        let (plain_ok, plain) = held_after_turn_down(&c, None, 3000.0, rpm).expect("runs");
+        let d = differences(&forked, &plain);
+        assert!(d.is_empty(), "at {rpm} rpm the fork differs: {d:#?}");
+        assert_eq!(ok, plain_ok);
+    }
+    let (ok, low) = seeded.held(492.0).expect("runs");
+    assert!(!ok && low.verdict == Verdict::LostSync, "{low:?}");
 }
 
 /// A 0.2 s run stepped to `to_rpm` at `at_s`, its window from 0.15 s.
