@@ -6,7 +6,7 @@
 //!
 //! - **Floor**: [`range::floor`], the range's bisection, on the 24-bit meter
 //!   ([`Meter::WIDE`]), seeded at [`SEED_RPM`] after the seed holds from standstill
-//!   ([`range::controllable`]), to [`RESOLUTION`] (coarser than the range's 3 %: see there).
+//!   ([`range::controllable`]), to [`RESOLUTION`] (the range's 3 %).
 //! - **Ripple**: the low-band ripple (`torque_ripple_lf_nm / torque_mean_nm`) at
 //!   [`RIPPLE_RPM`], turned down from [`SEED_RPM`] as the vibration section's runs are.
 
@@ -34,9 +34,9 @@ pub const STRATEGIES: [StrategyName; 3] = [
 pub const SEED_RPM: f64 = range::SEEDS[0];
 /// Speed of the ripple runs \[rpm\] (the vibration section's low speed).
 pub const RIPPLE_RPM: f64 = 1000.0;
-/// Relative resolution of the study's floor bisection: 6 %, one run fewer per floor
-/// than the range's 3 % (7 instead of 8 near 500 rpm), ±15 rpm at a 500 rpm floor.
-pub const RESOLUTION: f64 = 0.06;
+/// Relative resolution of the study's floor bisection: the range's 3 %, ±8 rpm at a
+/// 500 rpm floor (6 % saved one run per floor before the runs forked from one start-up).
+pub const RESOLUTION: f64 = range::RESOLUTION;
 
 /// A factor of the study.
 #[derive(Copy, Clone, Debug, PartialEq, Eq, Serialize)]
