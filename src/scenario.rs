@@ -3,17 +3,19 @@
 //! The library, `drive-bench run --scenario` (see [`crate::scenario_file`]) and the
 //! bench's own experiments all build this one type.
 
+mod fork;
 mod measure;
+mod runner;
 
 use crate::config::DriveConfig;
-use crate::drive::{BuildError, DriveEngine, build, build_plugin};
+use crate::drive::{BuildError, DriveEngine};
 use crate::profile::{LoadProfile, Profile};
 use crate::verdict::{VerdictRule, hold_window_from_s, shortest_hold_s};
 use drive_core::error::ParamError;
-use drive_core::{EngineError, Plant, StopReason, Ticks};
-use measure::Metrics;
+use drive_core::{EngineError, Ticks};
+pub use fork::ForkError;
+pub use runner::Run;
 use serde::Serialize;
-use std::time::Instant;
 use strategies::PluginLibrary;
 
 /// What to simulate.
@@ -502,6 +504,9 @@ pub enum RunError {
     /// The plugin could not be instantiated.
     #[error("{0}")]
     Build(#[from] BuildError),
+    /// A run could not be forked as the scenario asked for.
+    #[error("{0}")]
+    Fork(#[from] ForkError),
 }
 
 /// Runs `sc`, calling `on_row` for every trace row.
@@ -513,160 +518,10 @@ pub fn run(sc: &Scenario, on_row: impl FnMut(&TraceRow)) -> Result<Outcome, RunE
 /// (for a progress bar).
 pub fn run_observed(
     sc: &Scenario,
-    mut on_row: impl FnMut(&TraceRow),
-    mut on_time: impl FnMut(f64),
+    on_row: impl FnMut(&TraceRow),
+    on_time: impl FnMut(f64),
 ) -> Result<Outcome, RunError> {
-    sc.validate()?;
-    let (config, mut eng, mut load) = set_up(sc)?;
-    let wall = Instant::now();
-    let mut trace = sc.trace.map(Rows::new);
-    let mut metrics = Metrics::new(sc, &eng);
-    let block = metrics.block;
-    let mut next_time = 0.0;
-    let (mut trace_on, mut steady_on) = (false, false);
-    for (t_event, event) in events(sc) {
-        let end = tick_of(t_event);
-        let trace_event = matches!(event, Event::TraceOn | Event::TraceOff);
-        eng.run_until(end, |e, reason| {
-            if matches!(reason, StopReason::Diode | StopReason::Sensing) {
-                return; // between ticks: the next whole-tick stop follows at once
-            }
-            if e.plant.time_s() >= next_time {
-                on_time(e.plant.time_s());
-                next_time = e.plant.time_s() + sc.duration_s / 200.0;
-            }
-            // Stops made for the trace alone (its rows, its window's ends) are not seen by
-            // the metrics, which sample at the stops: a trace observes without changing the
-            // summary. An untraced run stops at samples only at the torque block boundaries.
-            let trace_only = match reason {
-                StopReason::Sample => !(steady_on && e.now().0 % block.0 == 0),
-                StopReason::End => trace_event,
-                _ => false,
-            };
-            // Observed once per stop, for the metrics and the trace alike.
-            let mut obs = None;
-            if !trace_only {
-                metrics.stop(e, &mut obs);
-            }
-            if let Some(rows) = &mut trace {
-                rows.stop(e, obs, &mut on_row);
-            }
-        })?;
-        match event {
-            Event::Speed(rpm) => eng.controller.set_speed_ref(rpm),
-            Event::Load(k, x) => {
-                load.set_term(k, x);
-                eng.plant.set_load(load);
-            }
-            Event::Supply(v) => eng.plant.set_supply_v(v)?,
-            Event::TraceOn => trace_on = true,
-            Event::TraceOff => trace_on = false,
-            Event::SteadyOn => steady_on = true,
-            Event::End => {}
-        }
-        // Stops at trace rows and torque block boundaries: every multiple of both.
-        let rows = trace.as_ref().filter(|_| trace_on).map(|t| t.every);
-        let blocks = steady_on.then_some(block);
-        eng.set_sample_period(match (rows, blocks) {
-            (Some(a), Some(b)) => Ticks(gcd(a.0, b.0)),
-            (Some(a), None) | (None, Some(a)) => a,
-            (None, None) => Ticks::NEVER,
-        });
-    }
-    let wall_s = wall.elapsed().as_secs_f64();
-    Ok(metrics.outcome(sc, &config, &eng, wall_s))
-}
-
-/// The engine of `sc` at t = 0, with the profiles' first values, the config it was built
-/// from and the load it carries.
-fn set_up(sc: &Scenario) -> Result<(DriveConfig, DriveEngine, plants::Load), RunError> {
-    let mut config = sc.config.clone();
-    config.control.speed_ref_rpm = sc.speed_rpm.value_at(0.0);
-    if let Some(p) = &sc.supply_v {
-        config.power_stage.supply_v = p.value_at(0.0);
-    }
-    let mut eng = match &sc.plugin {
-        Some(p) => build_plugin(&config, p)?,
-        None => build(&config)?,
-    };
-    let load = sc.load.at(0.0);
-    eng.plant.set_load(load);
-    Ok((config, eng, load))
-}
-
-/// The trace's rows: every `every` from `from` to `to`.
-struct Rows {
-    every: Ticks,
-    from: Ticks,
-    to: Ticks,
-    last: Option<Ticks>,
-}
-
-impl Rows {
-    fn new(t: TraceSpec) -> Self {
-        Rows {
-            every: Ticks(((t.every_s / Ticks(1).seconds()).round() as u64).max(1)),
-            from: tick_of(t.from_s),
-            to: tick_of(t.to_s),
-            last: None,
-        }
-    }
-
-    /// Gives `on_row` the row of a whole-tick stop of `e` on a row's instant, once; `obs`:
-    /// the plant, if observed at this stop already.
-    fn stop(
-        &mut self,
-        e: &DriveEngine,
-        obs: Option<plants::Observation>,
-        on_row: &mut impl FnMut(&TraceRow),
-    ) {
-        let now = e.now();
-        if now >= self.from
-            && now <= self.to
-            && now.0 % self.every.0 == 0
-            && self.last.is_none_or(|r| now > r)
-        {
-            self.last = Some(now);
-            let o = obs.unwrap_or_else(|| e.plant.observe());
-            on_row(&TraceRow::observed(e, &o));
-        }
-    }
-}
-
-/// The run's schedule, in time order: every change of a profile after t = 0 (the engine
-/// was built with their first values), the trace's window and the steady-state window's
-/// start, then the end. Every schedule change is a segment end; the engine runs exactly to
-/// it. It stops at the trace's sampling instants only inside the trace's window: elsewhere
-/// those stops would cost most of the run (and change nothing but the instants seen).
-fn events(sc: &Scenario) -> Vec<(f64, Event)> {
-    let traced = sc
-        .trace
-        .iter()
-        .flat_map(|t| [(t.from_s, Event::TraceOn), (t.to_s, Event::TraceOff)])
-        .chain([(sc.steady_from_s, Event::SteadyOn)]);
-    let (end, stair) = (sc.duration_s, sc.profile_update_s);
-    let later = |p: &Profile| p.settings(end, stair).into_iter().skip(1);
-    let loads = sc
-        .load
-        .terms()
-        .into_iter()
-        .enumerate()
-        .flat_map(|(k, (_, p))| later(p).map(move |(t, x)| (t, Event::Load(k, x))));
-    let supply = sc
-        .supply_v
-        .iter()
-        .flat_map(|p| later(p).map(|(t, x)| (t, Event::Supply(x))));
-    let mut events: Vec<(f64, Event)> = later(&sc.speed_rpm)
-        .map(|(t, x)| (t, Event::Speed(x)))
-        .chain(loads)
-        .chain(supply)
-        .chain(traced)
-        .filter(|e| e.0 < sc.duration_s)
-        .collect();
-    // Stable: settings at one instant keep their order.
-    events.sort_by(|a, b| a.0.total_cmp(&b.0));
-    events.push((sc.duration_s, Event::End));
-    events
+    Run::start(sc)?.finish(on_row, on_time)
 }
 
 /// Runs `sc` through `attempt` and, while it ends `unsettled`, again with its window
@@ -706,23 +561,3 @@ pub fn settled(
 pub const SETTLE_TRIES: usize = 3;
 /// Margin beyond the instant an `unsettled` run names \[s\].
 pub const SETTLE_MARGIN_S: f64 = 0.05;
-
-#[derive(Copy, Clone, Debug)]
-enum Event {
-    Speed(f64),
-    /// A torque term of the load (see [`plants::Load::set_term`]).
-    Load(usize, f64),
-    Supply(f64),
-    TraceOn,
-    TraceOff,
-    SteadyOn,
-    End,
-}
-
-fn gcd(a: u64, b: u64) -> u64 {
-    if b == 0 { a } else { gcd(b, a % b) }
-}
-
-fn tick_of(t_s: f64) -> Ticks {
-    Ticks::from_seconds(t_s).unwrap_or(Ticks::NEVER)
-}

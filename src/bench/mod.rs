@@ -12,6 +12,7 @@ pub mod range;
 pub mod report;
 mod report_sections;
 pub mod results;
+pub mod seeded;
 pub mod sensitivity;
 pub mod sensitivity_report;
 pub mod spectrum;

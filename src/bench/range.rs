@@ -19,6 +19,7 @@
 //! (lost synchronism of the guard, a stall, off-speed from the meter or the PWM floor, …),
 //! led by where the rotor first slipped out of synchronism, if it did.
 
+use super::seeded::Seeded;
 use crate::config::DriveConfig;
 use crate::profile::Profile;
 use crate::scenario::{RunError, Scenario, Summary, run, settled};
@@ -141,7 +142,7 @@ pub fn controllable(
 }
 
 /// Whether the drive, running at `seed_rpm`, holds `rpm` after being turned down (or up)
-/// to it.
+/// to it, run from standstill (the searches fork their runs: [`Seeded::held`]).
 pub fn held_after_turn_down(
     config: &DriveConfig,
     plugin: Option<&PluginLibrary>,
@@ -213,15 +214,12 @@ pub struct Floor {
     pub sim_s: f64,
 }
 
-/// The floor of a drive running at `seed_rpm`, by bisection between the seed (held) and
-/// 0 rpm (never held), each run turned down from the seed; it stops when the bracket is
-/// within `resolution` of the floor (relative) or [`FLOOR_RESOLUTION_RPM`].
-pub fn floor(
-    config: &DriveConfig,
-    plugin: Option<&PluginLibrary>,
-    seed_rpm: f64,
-    resolution: f64,
-) -> Result<Floor, RunError> {
+/// The floor of a drive running at the seed speed, by bisection between the seed (held)
+/// and 0 rpm (never held), each run turned down from the seed (forked from `seeded`'s
+/// start-up); it stops when the bracket is within `resolution` of the floor (relative)
+/// or [`FLOOR_RESOLUTION_RPM`].
+pub fn floor(seeded: &mut Seeded, resolution: f64) -> Result<Floor, RunError> {
+    let seed_rpm = seeded.seed_rpm();
     let mut f = Floor {
         rpm: seed_rpm,
         limit: None,
@@ -232,7 +230,7 @@ pub fn floor(
     let (mut good, mut bad) = (seed_rpm, 0.0);
     while good - bad > (resolution * good).max(FLOOR_RESOLUTION_RPM) {
         let mid = 0.5 * (good + bad);
-        let (ok, sum) = held_after_turn_down(config, plugin, seed_rpm, mid)?;
+        let (ok, sum) = seeded.held(mid)?;
         f.tried.push((mid, ok));
         f.sim_s += sum.sim_s;
         if ok {
@@ -282,13 +280,15 @@ pub fn search(
         return Ok(range);
     };
     range.max_limit = None;
-    let floor = floor(config, plugin, seed, RESOLUTION)?;
+    // The floor's and the top's runs all fork from one start-up at the seed.
+    let mut seeded = Seeded::new(config, plugin, seed);
+    let floor = floor(&mut seeded, RESOLUTION)?;
     tried.extend(floor.tried);
     range.min_rpm = Some(floor.rpm);
     range.min_limit = floor.limit;
     // Top: `good` holds after the turn-up, `bad` does not (or is the ceiling).
     let (mut good, mut bad) = (seed, SEARCH_MAX_RPM);
-    let (ok, sum) = held_after_turn_down(config, plugin, seed, bad)?;
+    let (ok, sum) = seeded.held(bad)?;
     tried.push((bad, ok));
     if ok {
         good = bad;
@@ -296,7 +296,7 @@ pub fn search(
         range.max_limit = Some(limit(bad, &sum));
         while bad - good > RESOLUTION * good {
             let mid = 0.5 * (good + bad);
-            let (ok, sum) = held_after_turn_down(config, plugin, seed, mid)?;
+            let (ok, sum) = seeded.held(mid)?;
             tried.push((mid, ok));
             if ok {
                 good = mid;

@@ -61,7 +61,7 @@ pub const METRIC_DEFINITIONS: &[(&str, &str)] = &[
     ),
     (
         "sensitivity: floor / ripple per level",
-        "for each factor of the sensitivity study at its low and its high level (every other setting at the baseline, the 24-bit meter): the floor as above but to 6 %, seeded at 3000 rpm once that holds from standstill (none when it does not), and the LF ripple in % of the mean torque at 1000 rpm turned down from 3000 rpm; a tornado's segment runs from the low level's value to the high level's",
+        "for each factor of the sensitivity study at its low and its high level (every other setting at the baseline, the 24-bit meter): the floor as above (also to 3 % or 5 rpm), seeded at 3000 rpm once that holds from standstill (none when it does not), and the LF ripple in % of the mean torque at 1000 rpm turned down from 3000 rpm; a tornado's segment runs from the low level's value to the high level's",
     ),
 ];
 

@@ -6,14 +6,15 @@
 //!
 //! - **Floor**: [`range::floor`], the range's bisection, on the 24-bit meter
 //!   ([`Meter::WIDE`]), seeded at [`SEED_RPM`] after the seed holds from standstill
-//!   ([`range::controllable`]), to [`RESOLUTION`] (coarser than the range's 3 %: see there).
+//!   ([`range::controllable`]), to [`RESOLUTION`] (the range's 3 %).
 //! - **Ripple**: the low-band ripple (`torque_ripple_lf_nm / torque_mean_nm`) at
 //!   [`RIPPLE_RPM`], turned down from [`SEED_RPM`] as the vibration section's runs are.
 
 use super::pool;
 use super::range::{self, Limit, Meter};
+use super::seeded::Seeded;
 use crate::config::DriveConfig;
-use crate::scenario::{RunError, run, settled};
+use crate::scenario::RunError;
 use drive_core::error::ParamError;
 use serde::Serialize;
 use std::time::Instant;
@@ -33,9 +34,9 @@ pub const STRATEGIES: [StrategyName; 3] = [
 pub const SEED_RPM: f64 = range::SEEDS[0];
 /// Speed of the ripple runs \[rpm\] (the vibration section's low speed).
 pub const RIPPLE_RPM: f64 = 1000.0;
-/// Relative resolution of the study's floor bisection: 6 %, one run fewer per floor
-/// than the range's 3 % (7 instead of 8 near 500 rpm), ±15 rpm at a 500 rpm floor.
-pub const RESOLUTION: f64 = 0.06;
+/// Relative resolution of the study's floor bisection: the range's 3 %, ±8 rpm at a
+/// 500 rpm floor (6 % saved one run per floor before the runs forked from one start-up).
+pub const RESOLUTION: f64 = range::RESOLUTION;
 
 /// A factor of the study.
 #[derive(Copy, Clone, Debug, PartialEq, Eq, Serialize)]
@@ -301,17 +302,18 @@ pub fn run_job(job: &Job) -> Result<Point, RunError> {
     let c = &job.config;
     let (held, seed) = range::controllable(c, None, SEED_RPM)?;
     let (mut runs, mut sim_s) = (1, seed.sim_s);
+    // The floor's runs and the ripple run fork from one start-up at the seed.
+    let mut seeded = Seeded::new(c, None, SEED_RPM);
     let (floor_rpm, floor_limit) = if held {
-        let f = range::floor(c, None, SEED_RPM, RESOLUTION)?;
+        let f = range::floor(&mut seeded, RESOLUTION)?;
         runs += f.tried.len();
         sim_s += f.sim_s;
         (Some(f.rpm), f.limit)
     } else {
         (None, Some(range::limit(SEED_RPM, &seed)))
     };
-    let sc = range::turned(c, SEED_RPM, RIPPLE_RPM, range::TURN_DOWN_S);
     // Lengthened while its window still falls in the settling, as the range search does.
-    let s = settled(&sc, |s| run(s, |_| {}))?.1.summary;
+    let s = seeded.settled(RIPPLE_RPM)?.summary;
     runs += 1;
     sim_s += s.sim_s;
     let ripple_pct = s

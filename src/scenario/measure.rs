@@ -1,5 +1,5 @@
 //! What a run measures at the engine's stops, and the summary and verdict made of it at
-//! the end: the metrics half of [`super::run_observed`], kept apart from its schedule.
+//! the end: the metrics half of [`super::Run`], kept apart from its schedule.
 
 use super::{Outcome, Scenario, Summary};
 use crate::config::DriveConfig;
@@ -11,8 +11,10 @@ use plants::{BldcPlant, Observation};
 use strategies::Mode;
 
 /// The metrics of a run so far.
+#[derive(Clone)]
 pub(super) struct Metrics {
-    steady_from: f64,
+    /// The window's start \[s\] (a fork may move it while no stop has reached it).
+    pub steady_from: f64,
     speed: TimeStats,
     /// The window's start: time, copper loss, ∫Te dt, ∫Te² dt. The torque and the current
     /// vary within a PWM period, so sampling them at the engine's stops would weigh the

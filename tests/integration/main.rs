@@ -17,6 +17,7 @@ mod declared_reads;
 mod docs;
 mod drive_clone;
 mod floor_drift;
+mod fork;
 mod load_models;
 mod lookahead;
 mod params_validation;

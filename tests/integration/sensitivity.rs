@@ -41,7 +41,7 @@ fn matching_the_comparator_filters_lowers_the_df_floor_and_doubling_the_mismatch
         matched <= 400.0 && matched < 0.75 * five,
         "matched {matched} against {five} rpm"
     );
-    // Twice the mismatch, twice the floor: the study's 6 % bisection on each floor and
+    // Twice the mismatch, twice the floor: the study's 3 % bisection on each floor and
     // the DF's E_th spread of ±20 % with its clock's phase (docs/chip.md) widen it.
     let ratio = ten / five;
     assert!(
