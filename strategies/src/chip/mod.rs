@@ -205,6 +205,7 @@ impl Chip {
                 } else {
                     0.0
                 },
+                hold_at_lo: control.speed_anti_windup,
             },
             0.0,
         );
@@ -220,6 +221,7 @@ impl Chip {
                 } else {
                     0.0
                 },
+                hold_at_lo: false,
             },
             0.0,
         );
