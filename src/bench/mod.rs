@@ -113,8 +113,7 @@ pub struct Plan {
     /// commutation at low speed.
     pub drift_matched: Option<String>,
     /// The variant whose spectra are also taken with the other chopping
-    /// (the published high-side chop, or lone-switch chopping against a high-side config):
-    /// the experiment that names the chopping's lines.
+    /// ([`experiments::contrast_chopping`]): the experiment that names the chopping's lines.
     pub spectrum_chopping: Option<String>,
     /// The anti-windup comparison: runs that drive a PI into saturation.
     pub step: StepPlan,
@@ -215,7 +214,7 @@ impl Default for StepPlan {
                 },
                 AwCase {
                     name: "step 6000 → 1500 rpm".into(),
-                    saturates: "both PIs at their lower limits (no current, no duty): the speed PI's integrator drains to its clamp at 0 unless held (speed anti-windup)".into(),
+                    saturates: "both PIs at their lower limits (no current, no duty): each integrator is clamped there, so neither winds up".into(),
                     speed_rpm: Profile::constant(3000.0)
                         .step_to(1.5, 6000.0)
                         .step_to(3.5, 1500.0),

@@ -64,11 +64,7 @@ pub struct ControlParams {
     /// `current_limit_a`. The chip has none there (its speed PI only clamps the integrator
     /// at the limit), yet this is the PI that saturates in large speed steps and under
     /// loads it cannot carry, and unwinding a clamped integrator takes seconds at the
-    /// scheduled gains. It also holds the integrator while the output sits at 0 and the
-    /// error would lower it (conditional integration): on a step down the rotor coasts
-    /// and the error would drain the friction's current from the integrator, which the
-    /// low-speed loop then rebuilds too late (docs/chip.md, "At the lower limit").
-    /// Default true (a designer's choice); false gives the published chip.
+    /// scheduled gains. Default true (a designer's choice); false gives the published chip.
     /// (A start from standstill does not saturate it with the shipped gains: its +10 %
     /// overshoot comes from the integrator building while the rotor runs up.)
     pub speed_anti_windup: bool,

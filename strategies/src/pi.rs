@@ -14,10 +14,6 @@
 //! must be unwound by an error of the other sign; with it, any excess over the limit is
 //! fed back k_s-fold, which pulls the integrator out of saturation within one update.
 //!
-//! With `hold_at_lo` (the speed PI's anti-windup, not the chip's) the integrator holds
-//! its value while the output sits at the lower limit and the error would lower it: a
-//! speed PI asking no current during a coast keeps the friction's current it had learned.
-//!
 //! The back-calculation acts on the upper limit only (the chip: "when uc exceeds the
 //! limit", the chip's 4 096 000). Mirrored at the lower limit, a k_s ≫ 1 turns a large
 //! negative proportional term (one high current sample) into a k_s-fold *positive* kick
@@ -51,9 +47,6 @@ pub struct PiGains {
     pub ui_hi: f64,
     /// Back-calculation gain k_s (0 disables anti-windup).
     pub k_s: f64,
-    /// Conditional integration at the lower limit: while the output sits at `lo` and the
-    /// error would lower the integrator further, the integrator holds its value instead.
-    pub hold_at_lo: bool,
 }
 
 /// A discrete PI controller.
@@ -82,9 +75,7 @@ impl Pi {
         let uc = g.kp * e + integ;
         let out = uc.clamp(g.lo, g.hi);
         let excess = (uc - g.hi).max(0.0);
-        if !(g.hold_at_lo && uc < g.lo && g.ki * e < 0.0) {
-            self.ui = (integ - g.k_s * excess).clamp(g.lo, g.ui_hi.max(g.hi));
-        }
+        self.ui = (integ - g.k_s * excess).clamp(g.lo, g.ui_hi.max(g.hi));
         self.out = out;
         out
     }
@@ -141,7 +132,6 @@ mod tests {
             hi: 10.0,
             ui_hi: 10.0,
             k_s,
-            hold_at_lo: false,
         }
     }
 
@@ -204,7 +194,6 @@ mod tests {
             hi: 10.0,
             ui_hi: 10.0,
             k_s,
-            hold_at_lo: false,
         };
         // A large error saturates the output for 5 updates, then the error vanishes.
         let mut off = Pi::new(g(0.0), 0.0);
@@ -352,25 +341,5 @@ mod tests {
             on.integrator()
         );
         assert!(on.update(-1.0) < 10.0);
-    }
-
-    /// Under a negative error with the output at 0, a held integrator keeps its value
-    /// and a plain one drains to the clamp; both rise again under a positive error.
-    #[test]
-    fn a_held_integrator_keeps_its_value_at_the_lower_limit() {
-        let g = |hold_at_lo| PiGains {
-            hold_at_lo,
-            ..gains(0.0)
-        };
-        let (mut held, mut plain) = (Pi::new(g(true), 4.0), Pi::new(g(false), 4.0));
-        for _ in 0..20 {
-            assert_eq!(held.update(-5.0), 0.0);
-            assert_eq!(plain.update(-5.0), 0.0);
-        }
-        assert_eq!(held.integrator(), 4.0);
-        assert_eq!(plain.integrator(), 0.0);
-        // kp = 2, ki = 0.5: e = 1 gives 4 + 0.5 + 2 against 0 + 0.5 + 2.
-        assert_eq!(held.update(1.0), 6.5);
-        assert_eq!(plain.update(1.0), 2.5);
     }
 }

@@ -27,7 +27,6 @@ mod scenarios;
 mod sensitivity;
 mod startup;
 mod startup_resistance;
-mod step_down;
 mod step_fidelity;
 mod stop;
 mod summary;

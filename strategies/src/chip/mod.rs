@@ -205,7 +205,6 @@ impl Chip {
                 } else {
                     0.0
                 },
-                hold_at_lo: control.speed_anti_windup,
             },
             0.0,
         );
@@ -221,7 +220,6 @@ impl Chip {
                 } else {
                     0.0
                 },
-                hold_at_lo: false,
             },
             0.0,
         );
