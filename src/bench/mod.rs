@@ -113,7 +113,8 @@ pub struct Plan {
     /// commutation at low speed.
     pub drift_matched: Option<String>,
     /// The variant whose spectra are also taken with the other chopping
-    /// ([`experiments::contrast_chopping`]): the experiment that names the chopping's lines.
+    /// (the published high-side chop, or lone-switch chopping against a high-side config):
+    /// the experiment that names the chopping's lines.
     pub spectrum_chopping: Option<String>,
     /// The anti-windup comparison: runs that drive a PI into saturation.
     pub step: StepPlan,
