@@ -23,6 +23,7 @@ mod lookahead;
 mod params_validation;
 mod plant_physics;
 mod quiet_loops;
+mod range_tops;
 mod scenarios;
 mod sensitivity;
 mod startup;
