@@ -407,6 +407,17 @@ pub fn tune(config: &DriveConfig, from_rpm: f64, to_rpm: f64) -> Result<Tuned, T
 mod tests {
     use super::*;
 
+    /// The shipped hand-over time is this derivation's for the built-in motor at the
+    /// shipped start current (docs/chip.md, "The assumed first 60°"), 11.9 ms.
+    #[test]
+    fn the_shipped_first_sector_time_is_the_built_in_rotors() {
+        let c = DriveConfig::default();
+        let model = LoopModel::new(&c).unwrap();
+        let t = first_sector_s(&model, c.control.start_phase_current_a);
+        assert_eq!(t, c.control.handover_t60_s);
+        assert_eq!(t, 0.0119);
+    }
+
     #[test]
     fn the_current_loop_of_an_integral_pi_has_its_pole_at_one_minus_the_loop_gain() {
         // With Kp = 0 and no schedule the pole is 1 − Ki·g, g from the operating point:

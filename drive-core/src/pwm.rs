@@ -144,7 +144,8 @@ pub struct LoneSwitchChop;
 
 impl PwmScheme for LoneSwitchChop {
     fn gates(&self, pattern: &Pattern, on: bool) -> Gates {
-        let highs = [pattern.u, pattern.v, pattern.w]
+        let highs = pattern
+            .to_array()
             .iter()
             .filter(|&&s| s == LegState::High)
             .count();
@@ -301,15 +302,18 @@ mod tests {
                 LoneSwitchChop.gates(&p, true),
                 LoneSwitchChop.gates(&p, false),
             );
-            let changed = [
-                on.high.u != off.high.u,
-                on.high.v != off.high.v,
-                on.high.w != off.high.w,
-                on.low.u != off.low.u,
-                on.low.v != off.low.v,
-                on.low.w != off.low.w,
-            ];
-            assert_eq!(changed.iter().filter(|&&c| c).count(), 1, "{p:?}");
+            let flips = |a: Abc<bool>, b: Abc<bool>| {
+                a.to_array()
+                    .iter()
+                    .zip(b.to_array())
+                    .filter(|(x, y)| **x != *y)
+                    .count()
+            };
+            assert_eq!(
+                flips(on.high, off.high) + flips(on.low, off.low),
+                1,
+                "{p:?}"
+            );
         }
         assert!(asymmetric_hsc > 0);
     }

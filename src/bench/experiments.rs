@@ -329,7 +329,7 @@ impl Bench<'_> {
 
 /// The chopping experiment's scheme: the published chip's high-side chop, or against it
 /// lone-switch chopping (the shipped default), the other settings as configured.
-pub fn contrast_chopping(ps: &PowerStageParams) -> PowerStageParams {
+fn contrast_chopping(ps: &PowerStageParams) -> PowerStageParams {
     let mut other = ps.clone();
     other.pwm_scheme = match ps.pwm_scheme {
         PwmSchemeKind::HighSideChop => PwmSchemeKind::LoneSwitchChop,

@@ -37,11 +37,6 @@ impl<'a> Seeded<'a> {
         self.seed_rpm
     }
 
-    /// The config.
-    pub fn config(&self) -> &DriveConfig {
-        self.config
-    }
-
     /// Whether the drive holds `rpm` after being turned to it ([`range::turned`]), with
     /// the run's summary (lengthened while its window falls in the settling, as
     /// [`range::held_after_turn_down`] does).
