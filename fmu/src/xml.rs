@@ -356,6 +356,7 @@ mod tests {
             "control.stop_at_zero",
             "control.align_current_a",
             "control.start_phase_current_a",
+            "control.speed_resume",
         ];
         let n = table().len();
         let tail: Vec<&str> = table()[n - appended.len()..]

@@ -470,5 +470,12 @@ fn appended() -> Vec<Variable> {
             "Phase current the first alignment step regulates its duty to, held through the other two (0: the published fixed control.startup_duty)"),
         real!("control.start_phase_current_a", control.start_phase_current_a, "A", Z, Some(10.0),
             "Phase current commanded from the hand-over to the first speed measurement, as d × this shunt current (0: the published control.start_current_a)"),
+        var("control.speed_resume", Boolean, Role::Parameter {
+            get: |c| f64::from(u8::from(c.control.speed_resume)),
+            set: |c, v| {
+                c.control.speed_resume = v != 0.0;
+                Ok(())
+            },
+        }, "", "After a fall at the speed PI's lower limit, the first update below the command presets the speed PI to the phase current it held before the fall and the current PI to the duty that needs; raw, DF and six-step (not in the published chip)"),
     ]
 }

@@ -225,6 +225,19 @@ pub struct ControlParams {
     /// keeps toggling so step miss never fires, and the supervisor (or nothing, without
     /// it) restarts a rotor it was told to stop. Default true.
     pub stop_at_zero: bool,
+    /// The speed PI resumes where it left off after a fall (not the published chip's).
+    /// The PI asks no negative torque, so on a step down it sits at its lower limit (0 A)
+    /// and the rotor coasts on its friction while the error drains both integrators; when
+    /// the measured speed comes back below the command, the published PIs rebuild the
+    /// friction's current from 0, at the low-speed gains, behind a meter one FG period
+    /// late, and twelve-step loses a step 3000 → 600 rpm below its floor. With this on,
+    /// the first update that leaves the lower limit presets the speed PI's integrator to
+    /// the phase current it held at its last update off the limit (as the shunt current
+    /// d̂ × that, d̂ the gain schedule's duty at the measured speed) and the current PI's
+    /// to the duty d̂: the load that needed that current before the fall is assumed to
+    /// need it after. Only for the guards without a linear region (raw, DF, six-step):
+    /// ND's and LM's windows drive the rotor beside the current. Default true.
+    pub speed_resume: bool,
     /// Peak count of the PWM carrier, which counts up and down at the 50 MHz master
     /// clock: the PWM frequency is 25 MHz / this \[counts\]. Default 2000 (12.5 kHz, the
     /// chip's). The voltage command and the current PI's gains are in these counts, so at
@@ -273,6 +286,7 @@ impl Default for ControlParams {
             gain_schedule: true,
             schedule_min_duty: 0.03,
             stop_at_zero: true,
+            speed_resume: true,
             carrier_top: 2000,
         }
     }

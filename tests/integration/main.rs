@@ -28,6 +28,7 @@ mod scenarios;
 mod sensitivity;
 mod startup;
 mod startup_resistance;
+mod step_down;
 mod step_fidelity;
 mod stop;
 mod summary;

@@ -131,6 +131,9 @@ pub struct Chip {
     shifter: PhaseShifter,
     speed: SpeedMeter,
     speed_pi: Pi,
+    /// The phase current the speed PI's integrator stood for at its last update off the
+    /// lower limit \[A\] (`control.speed_resume`).
+    held_phase_a: f64,
     current_pi: Pi,
     supervisor: Supervisor,
     /// FG measurements the supervisor has seen.
@@ -239,6 +242,7 @@ impl Chip {
                     .flatten(),
             ),
             speed_pi,
+            held_phase_a: 0.0,
             current_pi,
             supervisor: Supervisor::new(&control),
             measurements_seen: 0,
@@ -504,6 +508,7 @@ mod tests {
             "i_ref = 1000000000000000000000000000000 (rule: 0..=",
         );
         refused(&|f| f.i_ref = -1e-3, "i_ref = -0.001 (rule:");
+        refused(&|f| f.held_phase_a = -1.0, "held_phase_a = -1 (rule: 0..=");
         refused(
             &|f| f.restarts = 6,
             "restarts = 6 (rule: at most control.max_restarts = 5",

@@ -68,6 +68,7 @@ drive_core::persist_fields!(Chip {
     shifter,
     speed,
     speed_pi,
+    held_phase_a,
     current_pi,
     supervisor,
     measurements_seen,
@@ -151,6 +152,14 @@ impl Chip {
             format!(
                 "i_ref = {} (rule: 0..={top} A, the start-up current or the speed PI's output within the current limit)",
                 self.i_ref
+            )
+        })?;
+        // ui/d̂: the integrator's clamp over the schedule's least duty.
+        let held = self.speed_pi.gains.ui_hi.max(self.speed_pi.gains.hi) / c.schedule_min_duty;
+        check((0.0..=held).contains(&self.held_phase_a), || {
+            format!(
+                "held_phase_a = {} (rule: 0..={held} A, the speed PI's integrator over the least scheduled duty)",
+                self.held_phase_a
             )
         })?;
         let max = c.max_restarts;

@@ -28,6 +28,7 @@ impl Chip {
         self.linear_seen = false;
         self.supervisor.reset();
         self.speed_pi.set_integrator(0.0);
+        self.held_phase_a = 0.0;
         self.i_ref = 0.0;
         self.guard.filter.reset();
     }

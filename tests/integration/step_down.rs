@@ -1,0 +1,62 @@
+//! A step down to a low speed (docs/chip.md, "Resuming after a fall"): twelve-step-df
+//! stepped from 3000 to 600 rpm holds 600 rpm with the shipped `control.speed_resume`,
+//! and the published PIs, which rebuild the friction's current from what the fall left
+//! them, lose the rotor below DF's floor.
+
+use bldc_drive::DriveConfig;
+use bldc_drive::profile::Profile;
+use bldc_drive::scenario::{Scenario, TraceSpec, run};
+use bldc_drive::verdict::Verdict;
+
+/// twelve-step-df from standstill at 3000 rpm, stepped to 600 rpm at 2 s, judged over
+/// 5..6 s: the verdict and reason, the restarts after the step and the true speed's
+/// least value after it.
+fn stepped(mut config: DriveConfig, seed: u64) -> (Verdict, String, u32, f64) {
+    config.strategy.name = "twelve-step-df".parse().unwrap();
+    config.sensing.seed = seed;
+    let mut sc = Scenario::hold(config, 3000.0, 6.0);
+    sc.speed_rpm = Profile::constant(3000.0).step_to(2.0, 600.0);
+    sc.steady_from_s = 5.0;
+    sc.trace = Some(TraceSpec {
+        every_s: 1e-3,
+        from_s: 2.0,
+        to_s: 6.0,
+    });
+    let mut first = None;
+    let mut last = 0;
+    let mut least = f64::INFINITY;
+    let out = run(&sc, |r| {
+        first.get_or_insert(r.restarts);
+        last = r.restarts;
+        least = least.min(r.speed_rpm);
+    })
+    .expect("the run");
+    let s = out.summary;
+    (
+        s.verdict,
+        s.verdict_reason,
+        last - first.unwrap_or(last),
+        least,
+    )
+}
+
+#[test]
+fn a_step_3000_to_600_rpm_is_held() {
+    for seed in [1, 2, 3] {
+        let (verdict, reason, restarts, least) = stepped(DriveConfig::default(), seed);
+        assert_eq!(verdict, Verdict::Running, "seed {seed}: {reason}");
+        assert_eq!(restarts, 0, "seed {seed}: restarts after the step");
+        // The rotor coasts below the command while the meter, one FG period late, still
+        // reads it above; it must not fall to a standstill.
+        assert!(least > 300.0, "seed {seed}: the rotor fell to {least} rpm");
+    }
+}
+
+#[test]
+fn the_published_pis_lose_the_step() {
+    let mut c = DriveConfig::default();
+    c.control.speed_resume = false;
+    let (verdict, reason, _, least) = stepped(c, 1);
+    assert_ne!(verdict, Verdict::Running, "{reason}");
+    assert!(least < 300.0, "the rotor fell only to {least} rpm");
+}
