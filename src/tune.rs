@@ -104,6 +104,9 @@ pub struct Tuned {
     /// The hand-over's assumed first 60° time \[s\]: [`first_sector_s`] at
     /// `start_phase_current_a`.
     pub handover_t60_s: f64,
+    /// The speed reference's descent after a start that ran past the command \[rpm/s\]:
+    /// [`descent_rpm_s`].
+    pub start_descent_rpm_s: f64,
     /// The margins at each speed of the range.
     pub margins: Vec<Margins>,
 }
@@ -114,7 +117,8 @@ impl Tuned {
         format!(
             "[control]\nspeed_kp = {:.3e}\nspeed_ki = {:.3e}\ncurrent_kp = 0.0\ncurrent_ki = {:.1}\n\
              supervisor_no_load_rpm = {:.0}\nsupervisor_locked_rotor_a = {:.3}\n\
-             align_current_a = {:.3}\nstart_phase_current_a = {:.3}\nhandover_t60_s = {:.4}\n",
+             align_current_a = {:.3}\nstart_phase_current_a = {:.3}\nhandover_t60_s = {:.4}\n\
+             start_descent_rpm_s = {:.0}\n",
             self.speed_kp,
             self.speed_ki,
             self.current_ki,
@@ -122,7 +126,8 @@ impl Tuned {
             self.locked_rotor_a,
             self.align_current_a,
             self.start_phase_current_a,
-            self.handover_t60_s
+            self.handover_t60_s,
+            self.start_descent_rpm_s
         )
     }
 
@@ -138,8 +143,25 @@ impl Tuned {
         c.control.align_current_a = self.align_current_a;
         c.control.start_phase_current_a = self.start_phase_current_a;
         c.control.handover_t60_s = self.handover_t60_s;
+        c.control.start_descent_rpm_s = self.start_descent_rpm_s;
         c
     }
+}
+
+/// The share of the rotor's coast on its Coulomb friction, Tc/J, that the speed reference
+/// descends at after a start that ran past the command (`control.start_descent_rpm_s`).
+/// Descending at a share s, the rotor needs (1 − s) of the friction's torque, which the
+/// speed PI holds when the descent ends; the rest it must build then, at the low-speed
+/// loop's pace, while the rotor dips. At 0.4 a start straight to 550 or 600 rpm dips
+/// 60–80 rpm and is held by twelve-step-df; at 0.7 (983 rpm/s) it dips 215–245 rpm.
+pub const DESCENT_SHARE: f64 = 0.4;
+
+/// The start's descent rate \[rpm/s\]: [`DESCENT_SHARE`] of Tc/J, at least 1 (the
+/// parameter's rule) for a rotor with no Coulomb friction.
+pub fn descent_rpm_s(model: &LoopModel) -> f64 {
+    (DESCENT_SHARE * model.tc / model.j * 60.0 / (2.0 * PI))
+        .round()
+        .max(1.0)
 }
 
 /// The time the rotor takes from rest through its first 60° electrical under the torque
@@ -394,6 +416,7 @@ pub fn tune(config: &DriveConfig, from_rpm: f64, to_rpm: f64) -> Result<Tuned, T
         align_current_a: current(start.align_current_a),
         start_phase_current_a,
         handover_t60_s: first_sector_s(&model, start_phase_current_a),
+        start_descent_rpm_s: descent_rpm_s(&model),
         speed_kp,
         speed_ki,
         current_ki: model.control.current_ki,
@@ -416,6 +439,16 @@ mod tests {
         let t = first_sector_s(&model, c.control.start_phase_current_a);
         assert_eq!(t, c.control.handover_t60_s);
         assert_eq!(t, 0.0119);
+    }
+
+    /// The shipped descent rate is 0.4·Tc/J of the built-in rotor: 0.4 × 2.5e-4 N·m /
+    /// 1.7e-6 kg·m² = 58.8 rad/s² = 561.7 rpm/s.
+    #[test]
+    fn the_shipped_descent_is_the_built_in_rotors() {
+        let c = DriveConfig::default();
+        let model = LoopModel::new(&c).unwrap();
+        assert_eq!(descent_rpm_s(&model), c.control.start_descent_rpm_s);
+        assert_eq!(descent_rpm_s(&model), 562.0);
     }
 
     #[test]

@@ -491,9 +491,14 @@ mod tests {
             verdict_after(&[("speed_ref_rpm", 16000.0)], 3.0),
             Verdict::OffSpeed
         );
-        // Locked on false crossings with the rotor stopped (the chip as published).
+        // Locked on false crossings with the rotor stopped (the chip as published: no
+        // supervisor, no descent after the start).
         let v = verdict_after(
-            &[("speed_ref_rpm", 500.0), ("control.supervisor", 0.0)],
+            &[
+                ("speed_ref_rpm", 500.0),
+                ("control.supervisor", 0.0),
+                ("control.start_descent_rpm_s", 0.0),
+            ],
             3.0,
         );
         assert!(matches!(v, Verdict::Stalled | Verdict::LostSync), "{v}");
@@ -503,10 +508,15 @@ mod tests {
     fn in_sync_follows_the_true_rotor_not_the_chip() {
         let (sync, rpm) = in_sync_after(&[], 1.5);
         assert_eq!(sync, 1.0, "nominal drive at {rpm} rpm");
-        // 500 rpm, below what the 15-bit meter reads, the chip as published: it lets the
-        // rotor coast to a stop and then commutates on false crossings.
+        // 500 rpm, below what the 15-bit meter reads, the chip as published (no supervisor,
+        // no descent after the start): it lets the rotor coast to a stop and then
+        // commutates on false crossings.
         let (sync, rpm) = in_sync_after(
-            &[("speed_ref_rpm", 500.0), ("control.supervisor", 0.0)],
+            &[
+                ("speed_ref_rpm", 500.0),
+                ("control.supervisor", 0.0),
+                ("control.start_descent_rpm_s", 0.0),
+            ],
             3.0,
         );
         assert_eq!(sync, 0.0, "locked on false crossings at {rpm} rpm");

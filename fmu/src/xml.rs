@@ -181,6 +181,7 @@ fn base_unit(unit: &str) -> &'static str {
     match unit {
         "rpm" => "<BaseUnit rad=\"1\" s=\"-1\" factor=\"0.10471975511965977\"/>",
         "rad/s" => "<BaseUnit rad=\"1\" s=\"-1\"/>",
+        "rpm/s" => "<BaseUnit rad=\"1\" s=\"-2\" factor=\"0.10471975511965977\"/>",
         "deg" => "<BaseUnit rad=\"1\" factor=\"0.017453292519943295\"/>",
         "N.m" => "<BaseUnit kg=\"1\" m=\"2\" s=\"-2\"/>",
         "N.m.s/rad" => "<BaseUnit kg=\"1\" m=\"2\" s=\"-1\" rad=\"-1\"/>",
@@ -357,6 +358,7 @@ mod tests {
             "control.align_current_a",
             "control.start_phase_current_a",
             "control.speed_resume",
+            "control.start_descent_rpm_s",
         ];
         let n = table().len();
         let tail: Vec<&str> = table()[n - appended.len()..]

@@ -238,6 +238,16 @@ pub struct ControlParams {
     /// need it after. Only for the guards without a linear region (raw, DF, six-step):
     /// ND's and LM's windows drive the rotor beside the current. Default true.
     pub speed_resume: bool,
+    /// After a start that ran past the command, the speed PI's reference follows the rotor
+    /// down no faster than this \[rpm/s\] (not the published chip's, 0, which turns it
+    /// off). The start current runs the rotor past a low command before the first speed
+    /// measurement (to ≈ 1000 rpm on the built-in drive), and no current was held yet to
+    /// resume (`speed_resume`): the rotor coasted back through the command with the PI
+    /// asking nothing, and twelve-step lost a start straight to 600 rpm. A reference
+    /// falling slower than the rotor coasts keeps the PI asking current all the way down.
+    /// Default 562: 0.4 of the built-in rotor's coast on its Coulomb friction, Tc/J
+    /// (`drive-bench tune` writes it for a motor). Rule: 0 (off) or 1..=1e6.
+    pub start_descent_rpm_s: f64,
     /// Peak count of the PWM carrier, which counts up and down at the 50 MHz master
     /// clock: the PWM frequency is 25 MHz / this \[counts\]. Default 2000 (12.5 kHz, the
     /// chip's). The voltage command and the current PI's gains are in these counts, so at
@@ -287,6 +297,7 @@ impl Default for ControlParams {
             schedule_min_duty: 0.03,
             stop_at_zero: true,
             speed_resume: true,
+            start_descent_rpm_s: 562.0,
             carrier_top: 2000,
         }
     }
@@ -528,6 +539,13 @@ impl ControlParams {
             1.0,
             "must be in 1e-3..=1 (a fraction of full duty)",
         )?;
+        if !(self.start_descent_rpm_s == 0.0 || (1.0..=1e6).contains(&self.start_descent_rpm_s)) {
+            return Err(ParamError::new(
+                "control.start_descent_rpm_s",
+                self.start_descent_rpm_s,
+                "must be 0 (off) or in 1..=1e6 rpm/s",
+            ));
+        }
         if !(self.speed_window_s == 0.0 || (1e-3..=1.0).contains(&self.speed_window_s)) {
             return Err(ParamError::new(
                 "control.speed_window_s",

@@ -1,7 +1,9 @@
-//! A step down to a low speed (docs/chip.md, "Resuming after a fall"): twelve-step-df
-//! stepped from 3000 to 600 rpm holds 600 rpm with the shipped `control.speed_resume`,
-//! and the published PIs, which rebuild the friction's current from what the fall left
-//! them, lose the rotor below DF's floor.
+//! Falls to a low speed (docs/chip.md, "Resuming after a fall" and "Descent after a
+//! start"): twelve-step-df stepped from 3000 to 600 rpm holds 600 rpm with the shipped
+//! `control.speed_resume`, and the published PIs, which rebuild the friction's current
+//! from what the fall left them, lose the rotor below DF's floor; started straight to 550
+//! rpm, which the start current overshoots, it holds with `control.start_descent_rpm_s`
+//! and is lost without it.
 
 use bldc_drive::DriveConfig;
 use bldc_drive::profile::Profile;
@@ -59,4 +61,32 @@ fn the_published_pis_lose_the_step() {
     let (verdict, reason, _, least) = stepped(c, 1);
     assert_ne!(verdict, Verdict::Running, "{reason}");
     assert!(least < 300.0, "the rotor fell only to {least} rpm");
+}
+
+/// twelve-step-df started straight to `rpm` from standstill, judged over 5..6 s: the
+/// verdict and reason, and the restarts over the whole run.
+fn started(config: DriveConfig, rpm: f64, seed: u64) -> (Verdict, String, u32) {
+    let mut sc = Scenario::hold(config, rpm, 6.0);
+    sc.config.strategy.name = "twelve-step-df".parse().unwrap();
+    sc.config.sensing.seed = seed;
+    sc.steady_from_s = 5.0;
+    let s = run(&sc, |_| {}).expect("the run").summary;
+    (s.verdict, s.verdict_reason, s.restarts)
+}
+
+#[test]
+fn a_start_straight_to_550_rpm_descends_and_holds() {
+    for seed in [1, 2, 3] {
+        let (verdict, reason, restarts) = started(DriveConfig::default(), 550.0, seed);
+        assert_eq!(verdict, Verdict::Running, "seed {seed}: {reason}");
+        assert_eq!(restarts, 0, "seed {seed}");
+    }
+}
+
+#[test]
+fn without_the_descent_a_start_straight_to_550_rpm_is_lost() {
+    let mut c = DriveConfig::default();
+    c.control.start_descent_rpm_s = 0.0;
+    let (verdict, reason, _) = started(c, 550.0, 1);
+    assert_ne!(verdict, Verdict::Running, "{reason}");
 }

@@ -37,12 +37,6 @@ pub fn scheduled_duty(c: &ControlParams, rpm: f64, i_shunt_a: f64) -> f64 {
     (0.5 * (a + (a * a + drop).sqrt())).clamp(c.schedule_min_duty, 1.0)
 }
 
-/// The same duty for a phase current `i_phase_a`: d = a + i_ph/I_lr, clamped alike.
-fn phase_duty(c: &ControlParams, rpm: f64, i_phase_a: f64) -> f64 {
-    let a = rpm.max(0.0) / c.supervisor_no_load_rpm;
-    (a + i_phase_a.max(0.0) / c.supervisor_locked_rotor_a).clamp(c.schedule_min_duty, 1.0)
-}
-
 impl Chip {
     pub(super) fn clear_reads(&mut self) {
         self.read_slot = 0;
@@ -140,50 +134,13 @@ impl Chip {
         } else {
             1.0
         };
-        let i_ref = match start {
-            Some(i) => i,
-            None => {
-                let rpm = f64::from(self.speed.rpm());
-                let speed_error = self.speed_ref_rpm - rpm;
-                self.speed_update(rpm, speed_error, d)
-            }
-        };
+        let i_ref = self
+            .speed_update(start.is_some(), d)
+            .or(start)
+            .unwrap_or(0.0);
         self.i_ref = i_ref;
         let u = self.current_pi.update((i_ref - i) / d);
         self.cv = (u.round() as u32).min(self.top);
         tripped
-    }
-}
-
-impl Chip {
-    /// The speed PI's update, with `control.speed_resume`'s preset on leaving the lower
-    /// limit (a positive error after an update at the limit), for the guards without a
-    /// linear region (raw, DF, six-step). A window's full-voltage time drives the rotor
-    /// beside the PI's current (a 1° window alone holds ≈ 550 rpm on the built-in drive),
-    /// so there the current held before the fall says nothing about what is needed after
-    /// it; preset anyway, the current's short PWM on-times lengthened the windows and
-    /// kicked the rotor above the command (calibrate-lm's ωm rose from 551 to 715 rpm).
-    fn speed_update(&mut self, rpm: f64, speed_error: f64, d: f64) -> f64 {
-        let lo = self.speed_pi.gains.lo;
-        let resume = self.control.speed_resume && self.guard.linear_window_deg(0).is_none();
-        if resume && self.speed_pi.output() <= lo && speed_error > 0.0 {
-            let i_ph = self.held_phase_a;
-            let d_held = phase_duty(&self.control, rpm, i_ph);
-            if d_held * i_ph > self.speed_pi.integrator() {
-                self.speed_pi.set_integrator(d_held * i_ph);
-                // The duty that current needs, as the schedule models it: the current PI
-                // drained towards no duty in the coast.
-                let cv = d_held * f64::from(self.top);
-                if cv > self.current_pi.integrator() {
-                    self.current_pi.set_integrator(cv);
-                }
-            }
-        }
-        let out = self.speed_pi.update(speed_error * d);
-        if resume && out > lo {
-            let ui = self.speed_pi.integrator();
-            self.held_phase_a = ui / scheduled_duty(&self.control, rpm, ui);
-        }
-        out
     }
 }

@@ -10,6 +10,7 @@ mod cascade;
 mod commutation;
 mod inputs;
 mod persist;
+mod resume;
 mod startup;
 mod wake;
 
@@ -134,6 +135,11 @@ pub struct Chip {
     /// The phase current the speed PI's integrator stood for at its last update off the
     /// lower limit \[A\] (`control.speed_resume`).
     held_phase_a: f64,
+    /// The speed PI's reference while it descends after a start \[rpm\] (0: none;
+    /// `control.start_descent_rpm_s`).
+    descent_rpm: f64,
+    /// The last PI update was under the start current.
+    after_start: bool,
     current_pi: Pi,
     supervisor: Supervisor,
     /// FG measurements the supervisor has seen.
@@ -243,6 +249,8 @@ impl Chip {
             ),
             speed_pi,
             held_phase_a: 0.0,
+            descent_rpm: 0.0,
+            after_start: false,
             current_pi,
             supervisor: Supervisor::new(&control),
             measurements_seen: 0,
@@ -509,6 +517,11 @@ mod tests {
         );
         refused(&|f| f.i_ref = -1e-3, "i_ref = -0.001 (rule:");
         refused(&|f| f.held_phase_a = -1.0, "held_phase_a = -1 (rule: 0..=");
+        refused(&|f| f.descent_rpm = -5.0, "descent_rpm = -5 (rule: 0..=");
+        refused(
+            &|f| f.descent_rpm = 1e30,
+            "descent_rpm = 1000000000000000000000000000000 (rule: 0..=",
+        );
         refused(
             &|f| f.restarts = 6,
             "restarts = 6 (rule: at most control.max_restarts = 5",

@@ -69,6 +69,8 @@ drive_core::persist_fields!(Chip {
     speed,
     speed_pi,
     held_phase_a,
+    descent_rpm,
+    after_start,
     current_pi,
     supervisor,
     measurements_seen,
@@ -160,6 +162,14 @@ impl Chip {
             format!(
                 "held_phase_a = {} (rule: 0..={held} A, the speed PI's integrator over the least scheduled duty)",
                 self.held_phase_a
+            )
+        })?;
+        // The descent only ever takes a meter reading, or falls from one.
+        let top = self.speed.max_rpm() as f64;
+        check((0.0..=top).contains(&self.descent_rpm), || {
+            format!(
+                "descent_rpm = {} (rule: 0..={top} rpm, at most the meter's highest reading; 0 for none)",
+                self.descent_rpm
             )
         })?;
         let max = c.max_restarts;

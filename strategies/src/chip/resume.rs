@@ -1,0 +1,86 @@
+//! After a fall (docs/chip.md, "Resuming after a fall"). The speed PI asks no negative
+//! torque, so a step down, or a start that runs past a low command, leaves it at its lower
+//! limit while the rotor coasts on its friction and the error drains both integrators.
+//! `control.speed_resume`: on leaving the limit, the PIs resume the current the load needed
+//! before the fall. `control.start_descent_rpm_s`: after a start that ran past the command,
+//! where no current was held yet to resume, the speed PI's reference follows the rotor
+//! down no faster than a rate below its coast, so the PI asks current all the way down.
+
+use super::Chip;
+use super::cascade::scheduled_duty;
+use crate::params::ControlParams;
+use drive_core::clocks;
+
+/// The duty d = a + i_ph/I_lr a speed `rpm` needs with a phase current `i_phase_a`:
+/// [`scheduled_duty`] for a phase current rather than a shunt current, clamped alike.
+fn phase_duty(c: &ControlParams, rpm: f64, i_phase_a: f64) -> f64 {
+    let a = rpm.max(0.0) / c.supervisor_no_load_rpm;
+    (a + i_phase_a.max(0.0) / c.supervisor_locked_rotor_a).clamp(c.schedule_min_duty, 1.0)
+}
+
+impl Chip {
+    /// The speed PI's reference at the update after the start (`first`) or later: the
+    /// command, or while a descent is on, the measured speed `rpm` but no lower than one
+    /// update's `start_descent_rpm_s` below the last reference. The descent is armed on the
+    /// first update after the start; until the meter's second reading it only follows the
+    /// meter up, because the first reading averages a rotor that was accelerating hard
+    /// (661 rpm with the rotor at 990 on the built-in drive); from then on it falls, and it
+    /// ends once it is at or below the command, at once for a start that stayed below it.
+    fn speed_reference(&mut self, first: bool, rpm: f64) -> f64 {
+        let rate = self.control.start_descent_rpm_s;
+        if first && rate > 0.0 {
+            self.descent_rpm = rpm;
+        }
+        if self.descent_rpm > 0.0 {
+            if self.speed.measurements() < 2 {
+                self.descent_rpm = self.descent_rpm.max(rpm);
+            } else {
+                let step = rate * clocks::PI_UPDATE.seconds();
+                self.descent_rpm = rpm.max(self.descent_rpm - step);
+                if self.descent_rpm <= self.speed_ref_rpm {
+                    self.descent_rpm = 0.0;
+                }
+            }
+        }
+        self.speed_ref_rpm.max(self.descent_rpm)
+    }
+
+    /// The speed PI's update (None under the start current, `starting`), with
+    /// `control.speed_resume`'s preset on leaving the lower limit (a positive error after
+    /// an update at the limit), for the guards without a linear region (raw, DF, six-step).
+    /// A window's full-voltage time drives the rotor beside the PI's current (a 1° window
+    /// alone holds ≈ 550 rpm on the built-in drive), so there the current held before the
+    /// fall says nothing about what is needed after it; preset anyway, the current's short
+    /// PWM on-times lengthened the windows and kicked the rotor above the command
+    /// (calibrate-lm's ωm rose from 551 to 715 rpm).
+    pub(super) fn speed_update(&mut self, starting: bool, d: f64) -> Option<f64> {
+        if starting {
+            self.after_start = true;
+            return None;
+        }
+        let first = std::mem::take(&mut self.after_start);
+        let rpm = f64::from(self.speed.rpm());
+        let speed_error = self.speed_reference(first, rpm) - rpm;
+        let lo = self.speed_pi.gains.lo;
+        let resume = self.control.speed_resume && self.guard.linear_window_deg(0).is_none();
+        if resume && self.speed_pi.output() <= lo && speed_error > 0.0 {
+            let i_ph = self.held_phase_a;
+            let d_held = phase_duty(&self.control, rpm, i_ph);
+            if d_held * i_ph > self.speed_pi.integrator() {
+                self.speed_pi.set_integrator(d_held * i_ph);
+                // The duty that current needs, as the schedule models it: the current PI
+                // drained towards no duty in the coast.
+                let cv = d_held * f64::from(self.top);
+                if cv > self.current_pi.integrator() {
+                    self.current_pi.set_integrator(cv);
+                }
+            }
+        }
+        let out = self.speed_pi.update(speed_error * d);
+        if resume && out > lo {
+            let ui = self.speed_pi.integrator();
+            self.held_phase_a = ui / scheduled_duty(&self.control, rpm, ui);
+        }
+        Some(out)
+    }
+}
