@@ -232,7 +232,7 @@ pub struct ControlParams {
     /// friction's current from 0, at the low-speed gains, behind a meter one FG period
     /// late, and twelve-step loses a step 3000 → 600 rpm below its floor. With this on,
     /// the first update that leaves the lower limit presets the speed PI's integrator to
-    /// the phase current it held at its last update off the limit (as the shunt current
+    /// the phase current it held at its last update off both limits (as the shunt current
     /// d̂ × that, d̂ the gain schedule's duty at the measured speed) and the current PI's
     /// to the duty d̂: the load that needed that current before the fall is assumed to
     /// need it after. Only for the guards without a linear region (raw, DF, six-step):

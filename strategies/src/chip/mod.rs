@@ -132,8 +132,8 @@ pub struct Chip {
     shifter: PhaseShifter,
     speed: SpeedMeter,
     speed_pi: Pi,
-    /// The phase current the speed PI's integrator stood for at its last update off the
-    /// lower limit \[A\] (`control.speed_resume`).
+    /// The phase current the speed PI's integrator stood for at its last update off both
+    /// its limits \[A\] (`control.speed_resume`).
     held_phase_a: f64,
     /// The speed PI's reference while it descends after a start \[rpm\] (0: none;
     /// `control.start_descent_rpm_s`).

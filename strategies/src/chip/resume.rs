@@ -77,7 +77,8 @@ impl Chip {
             }
         }
         let out = self.speed_pi.update(speed_error * d);
-        if resume && out > lo {
+        // A current the limit capped was the limit's, not the load's.
+        if resume && out > lo && out < self.speed_pi.gains.hi {
             let ui = self.speed_pi.integrator();
             self.held_phase_a = ui / scheduled_duty(&self.control, rpm, ui);
         }
