@@ -153,15 +153,25 @@ impl Tuned {
 /// Descending at a share s, the rotor needs (1 − s) of the friction's torque, which the
 /// speed PI holds when the descent ends; the rest it must build then, at the low-speed
 /// loop's pace, while the rotor dips. At 0.4 a start straight to 550 or 600 rpm dips
-/// 60–80 rpm and is held by twelve-step-df; at 0.7 (983 rpm/s) it dips 215–245 rpm.
+/// 60–80 rpm and is held by twelve-step-df; at 0.7 (983 rpm/s) it dips 214–242 rpm.
 pub const DESCENT_SHARE: f64 = 0.4;
 
-/// The start's descent rate \[rpm/s\]: [`DESCENT_SHARE`] of Tc/J, at least 1 (the
-/// parameter's rule) for a rotor with no Coulomb friction.
-pub fn descent_rpm_s(model: &LoopModel) -> f64 {
-    (DESCENT_SHARE * model.tc / model.j * 60.0 / (2.0 * PI))
-        .round()
-        .max(1.0)
+/// The start's descent rate \[rpm/s\]: [`DESCENT_SHARE`] of the rotor's coast at
+/// `from_rpm`, the bottom of the tuned range, on its Coulomb friction alone, Tc/J, or,
+/// for a rotor without any, on its viscous friction, B·ω/J; within the parameter's rule
+/// 1..=1e6 rpm/s (0, off, for a rotor with no friction at all, which never coasts down).
+pub fn descent_rpm_s(model: &LoopModel, from_rpm: f64) -> f64 {
+    let coast = if model.tc > 0.0 {
+        model.tc / model.j
+    } else {
+        model.b * from_rpm * 2.0 * PI / 60.0 / model.j
+    };
+    let rpm_s = (DESCENT_SHARE * coast * 60.0 / (2.0 * PI)).round();
+    if rpm_s > 0.0 {
+        rpm_s.clamp(1.0, 1e6)
+    } else {
+        0.0
+    }
 }
 
 /// The time the rotor takes from rest through its first 60° electrical under the torque
@@ -416,7 +426,7 @@ pub fn tune(config: &DriveConfig, from_rpm: f64, to_rpm: f64) -> Result<Tuned, T
         align_current_a: current(start.align_current_a),
         start_phase_current_a,
         handover_t60_s: first_sector_s(&model, start_phase_current_a),
-        start_descent_rpm_s: descent_rpm_s(&model),
+        start_descent_rpm_s: descent_rpm_s(&model, from_rpm),
         speed_kp,
         speed_ki,
         current_ki: model.control.current_ki,
@@ -447,8 +457,22 @@ mod tests {
     fn the_shipped_descent_is_the_built_in_rotors() {
         let c = DriveConfig::default();
         let model = LoopModel::new(&c).unwrap();
-        assert_eq!(descent_rpm_s(&model), c.control.start_descent_rpm_s);
-        assert_eq!(descent_rpm_s(&model), 562.0);
+        assert_eq!(descent_rpm_s(&model, 1000.0), c.control.start_descent_rpm_s);
+        assert_eq!(descent_rpm_s(&model, 1000.0), 562.0);
+    }
+
+    /// Without Coulomb friction the descent is 0.4 of the viscous coast at the range's
+    /// bottom: B = 1e-6 N·m·s/rad at 1000 rpm over J = 1.7e-6 kg·m² is 61.6 rad/s², 588.2
+    /// rpm/s, so 235 rpm/s; with no friction at all it is off.
+    #[test]
+    fn a_rotor_without_coulomb_friction_descends_on_its_viscous_coast() {
+        let mut c = DriveConfig::default();
+        c.motor.coulomb_friction_nm = 0.0;
+        let model = LoopModel::new(&c).unwrap();
+        assert_eq!(descent_rpm_s(&model, 1000.0), 235.0);
+        c.motor.viscous_friction_nms = 0.0;
+        let model = LoopModel::new(&c).unwrap();
+        assert_eq!(descent_rpm_s(&model, 1000.0), 0.0);
     }
 
     #[test]

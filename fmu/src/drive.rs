@@ -491,8 +491,8 @@ mod tests {
             verdict_after(&[("speed_ref_rpm", 16000.0)], 3.0),
             Verdict::OffSpeed
         );
-        // Locked on false crossings with the rotor stopped (the chip as published: no
-        // supervisor, no descent after the start).
+        // Locked on false crossings with the rotor stopped (the shipped chip without its
+        // supervisor and its descent after the start, as the published chip does it).
         let v = verdict_after(
             &[
                 ("speed_ref_rpm", 500.0),
@@ -508,9 +508,9 @@ mod tests {
     fn in_sync_follows_the_true_rotor_not_the_chip() {
         let (sync, rpm) = in_sync_after(&[], 1.5);
         assert_eq!(sync, 1.0, "nominal drive at {rpm} rpm");
-        // 500 rpm, below what the 15-bit meter reads, the chip as published (no supervisor,
-        // no descent after the start): it lets the rotor coast to a stop and then
-        // commutates on false crossings.
+        // 500 rpm, below what the 15-bit meter reads, the shipped chip without its
+        // supervisor and its descent after the start: like the published chip, it lets the
+        // rotor coast to a stop and then commutates on false crossings.
         let (sync, rpm) = in_sync_after(
             &[
                 ("speed_ref_rpm", 500.0),

@@ -476,7 +476,7 @@ fn appended() -> Vec<Variable> {
                 c.control.speed_resume = v != 0.0;
                 Ok(())
             },
-        }, "", "After a fall at the speed PI's lower limit, the first update below the command presets the speed PI to the phase current it held before the fall and the current PI to the duty that needs; raw, DF and six-step (not in the published chip)"),
+        }, "", "After a fall at the speed PI's lower limit, the first update below the command presets the speed PI to the phase current it held before the fall and the current PI to the duty that needs; raw and DF guards (not in the published chip)"),
         real!("control.start_descent_rpm_s", control.start_descent_rpm_s, "rpm/s", Z, Some(1e6),
             "After a start that ran past the command, the speed PI's reference follows the rotor down no faster than this (0: off, the published chip); must be 0 or at least 1"),
     ]

@@ -235,8 +235,8 @@ pub struct ControlParams {
     /// the phase current it held at its last update off both limits (as the shunt current
     /// d̂ × that, d̂ the gain schedule's duty at the measured speed) and the current PI's
     /// to the duty d̂: the load that needed that current before the fall is assumed to
-    /// need it after. Only for the guards without a linear region (raw, DF, six-step):
-    /// ND's and LM's windows drive the rotor beside the current. Default true.
+    /// need it after. Only with a guard without a linear region (raw or DF, six-step's
+    /// default): ND's and LM's windows drive the rotor beside the current. Default true.
     pub speed_resume: bool,
     /// After a start that ran past the command, the speed PI's reference follows the rotor
     /// down no faster than this \[rpm/s\] (not the published chip's, 0, which turns it

@@ -96,6 +96,13 @@ fn bad_configs_are_refused_naming_the_key() {
         "control.speed_ref_rpm",
     );
     refused("[control]\nstartup_duty = 0.0\n", "control.startup_duty");
+    // The descent's rate: 0 (off) or 1..=1e6 rpm/s.
+    for bad in ["0.5", "-1.0", "nan", "2e6"] {
+        refused(
+            &format!("[control]\nstart_descent_rpm_s = {bad}\n"),
+            "control.start_descent_rpm_s",
+        );
+    }
     refused(
         "[control]\nalign_current_a = 0.005\n",
         "control.align_current_a",

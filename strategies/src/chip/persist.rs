@@ -156,19 +156,30 @@ impl Chip {
                 self.i_ref
             )
         })?;
-        // ui/d̂: the integrator's clamp over the schedule's least duty.
-        let held = self.speed_pi.gains.ui_hi.max(self.speed_pi.gains.hi) / c.schedule_min_duty;
+        // ui/d̂: the integrator's clamp over the schedule's least duty; nothing is held where
+        // nothing is resumed.
+        let resumes = c.speed_resume && self.guard.linear_window_deg(0).is_none();
+        let held = if resumes {
+            self.speed_pi.gains.ui_hi.max(self.speed_pi.gains.hi) / c.schedule_min_duty
+        } else {
+            0.0
+        };
         check((0.0..=held).contains(&self.held_phase_a), || {
             format!(
-                "held_phase_a = {} (rule: 0..={held} A, the speed PI's integrator over the least scheduled duty)",
+                "held_phase_a = {} (rule: 0..={held} A, the speed PI's integrator over the least scheduled duty; always 0 without control.speed_resume or with a linear-region guard)",
                 self.held_phase_a
             )
         })?;
-        // The descent only ever takes a meter reading, or falls from one.
-        let top = self.speed.max_rpm() as f64;
+        // The descent only ever takes a meter reading, or falls from one, and only with a
+        // rate to fall at.
+        let top = if c.start_descent_rpm_s > 0.0 {
+            self.speed.max_rpm() as f64
+        } else {
+            0.0
+        };
         check((0.0..=top).contains(&self.descent_rpm), || {
             format!(
-                "descent_rpm = {} (rule: 0..={top} rpm, at most the meter's highest reading; 0 for none)",
+                "descent_rpm = {} (rule: 0..={top} rpm, at most the meter's highest reading; 0 for none, and always 0 with control.start_descent_rpm_s = 0)",
                 self.descent_rpm
             )
         })?;

@@ -20,23 +20,24 @@ fn phase_duty(c: &ControlParams, rpm: f64, i_phase_a: f64) -> f64 {
 
 impl Chip {
     /// The speed PI's reference at the update after the start (`first`) or later: the
-    /// command, or while a descent is on, the measured speed `rpm` but no lower than one
-    /// update's `start_descent_rpm_s` below the last reference. The descent is armed on the
-    /// first update after the start; until the meter's second reading it only follows the
-    /// meter up, because the first reading averages a rotor that was accelerating hard
-    /// (661 rpm with the rotor at 990 on the built-in drive); from then on it falls, and it
-    /// ends once it is at or below the command, at once for a start that stayed below it.
+    /// command, or the descent while it is above the command. The descent is armed on the
+    /// first update after the start at the measured speed `rpm`; through the meter's second
+    /// reading it only follows the meter up, because the first reading averages a rotor
+    /// that was accelerating hard (661 rpm with the rotor at 990 on the built-in drive, the
+    /// second 1003); from the third on it falls by `start_descent_rpm_s` per second,
+    /// whatever the rotor does, and ends at the command: at the third reading for a start
+    /// whose readings stayed at or below it, and (peak − command)/rate later at most. (A
+    /// rotor lost before the third reading is the supervisor's, whose restart disarms it.)
     fn speed_reference(&mut self, first: bool, rpm: f64) -> f64 {
         let rate = self.control.start_descent_rpm_s;
         if first && rate > 0.0 {
             self.descent_rpm = rpm;
         }
         if self.descent_rpm > 0.0 {
-            if self.speed.measurements() < 2 {
+            if self.speed.measurements() <= 2 {
                 self.descent_rpm = self.descent_rpm.max(rpm);
             } else {
-                let step = rate * clocks::PI_UPDATE.seconds();
-                self.descent_rpm = rpm.max(self.descent_rpm - step);
+                self.descent_rpm -= rate * clocks::PI_UPDATE.seconds();
                 if self.descent_rpm <= self.speed_ref_rpm {
                     self.descent_rpm = 0.0;
                 }
@@ -47,7 +48,7 @@ impl Chip {
 
     /// The speed PI's update (None under the start current, `starting`), with
     /// `control.speed_resume`'s preset on leaving the lower limit (a positive error after
-    /// an update at the limit), for the guards without a linear region (raw, DF, six-step).
+    /// an update at the limit), for the guards without a linear region (raw and DF).
     /// A window's full-voltage time drives the rotor beside the PI's current (a 1° window
     /// alone holds ≈ 550 rpm on the built-in drive), so there the current held before the
     /// fall says nothing about what is needed after it; preset anyway, the current's short
