@@ -88,3 +88,28 @@ pub fn spec_emf(p: &PlantParams, theta_e: f64, omega_m: f64) -> Abc<f64> {
 pub fn rpm_to_rad_s(rpm: f64) -> f64 {
     rpm * 2.0 * std::f64::consts::PI / 60.0
 }
+
+/// Runs `sc` with a trace every 1 ms over `from_s..to_s`: its summary, the restarts made
+/// within the trace (from its first row to its last) and the true speed of each row
+/// (t \[s\], rpm).
+pub fn traced(
+    mut sc: bldc_drive::scenario::Scenario,
+    from_s: f64,
+    to_s: f64,
+) -> (bldc_drive::scenario::Summary, u32, Vec<(f64, f64)>) {
+    sc.trace = Some(bldc_drive::scenario::TraceSpec {
+        every_s: 1e-3,
+        from_s,
+        to_s,
+    });
+    let mut first = None;
+    let mut last = 0;
+    let mut speeds = Vec::new();
+    let out = bldc_drive::scenario::run(&sc, |r| {
+        first.get_or_insert(r.restarts);
+        last = r.restarts;
+        speeds.push((r.t_s, r.speed_rpm));
+    })
+    .expect("the run");
+    (out.summary, last - first.unwrap_or(last), speeds)
+}

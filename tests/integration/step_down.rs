@@ -5,9 +5,10 @@
 //! rpm, which the start current overshoots, it holds with `control.start_descent_rpm_s`
 //! and is lost without it.
 
+use crate::common::traced;
 use bldc_drive::DriveConfig;
 use bldc_drive::profile::Profile;
-use bldc_drive::scenario::{Scenario, TraceSpec, run};
+use bldc_drive::scenario::{Scenario, run};
 use bldc_drive::verdict::Verdict;
 
 /// twelve-step-df from standstill at 3000 rpm, stepped to 600 rpm at 2 s, judged over
@@ -19,27 +20,9 @@ fn stepped(mut config: DriveConfig, seed: u64) -> (Verdict, String, u32, f64) {
     let mut sc = Scenario::hold(config, 3000.0, 6.0);
     sc.speed_rpm = Profile::constant(3000.0).step_to(2.0, 600.0);
     sc.steady_from_s = 5.0;
-    sc.trace = Some(TraceSpec {
-        every_s: 1e-3,
-        from_s: 2.0,
-        to_s: 6.0,
-    });
-    let mut first = None;
-    let mut last = 0;
-    let mut least = f64::INFINITY;
-    let out = run(&sc, |r| {
-        first.get_or_insert(r.restarts);
-        last = r.restarts;
-        least = least.min(r.speed_rpm);
-    })
-    .expect("the run");
-    let s = out.summary;
-    (
-        s.verdict,
-        s.verdict_reason,
-        last - first.unwrap_or(last),
-        least,
-    )
+    let (s, restarts, speeds) = traced(sc, 2.0, 6.0);
+    let least = speeds.iter().map(|&(_, v)| v).fold(f64::INFINITY, f64::min);
+    (s.verdict, s.verdict_reason, restarts, least)
 }
 
 #[test]

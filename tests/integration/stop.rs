@@ -2,9 +2,10 @@
 //! rotor at rest, verdict `stopped` (exit 0), and the chip starts nothing after the
 //! command reached 0; the published chip (`stop_at_zero` off) does not stay stopped.
 
+use crate::common::traced;
 use bldc_drive::DriveConfig;
 use bldc_drive::profile::Profile;
-use bldc_drive::scenario::{Scenario, TraceSpec, run};
+use bldc_drive::scenario::Scenario;
 use bldc_drive::verdict::Verdict;
 
 /// twelve-step-df from standstill to 3000 rpm, ramped from 2 s to 0 at 4 s, judged over
@@ -15,29 +16,13 @@ fn ramp_to_zero(config: DriveConfig) -> (Verdict, String, u32, f64) {
     sc.config.strategy.name = "twelve-step-df".parse().unwrap();
     sc.speed_rpm = Profile::constant(3000.0).ramp_to(2.0, 4.0, 0.0);
     sc.steady_from_s = 4.5;
-    sc.trace = Some(TraceSpec {
-        every_s: 1e-3,
-        from_s: 4.0,
-        to_s: 6.0,
-    });
-    let mut first = None;
-    let mut last = 0;
-    let mut window_peak: f64 = 0.0;
-    let out = run(&sc, |r| {
-        first.get_or_insert(r.restarts);
-        last = r.restarts;
-        if r.t_s >= 4.5 {
-            window_peak = window_peak.max(r.speed_rpm.abs());
-        }
-    })
-    .expect("the run");
-    let s = out.summary;
-    (
-        s.verdict,
-        s.verdict_reason,
-        last - first.unwrap_or(last),
-        window_peak,
-    )
+    let (s, restarts, speeds) = traced(sc, 4.0, 6.0);
+    let window_peak = speeds
+        .iter()
+        .filter(|&&(t, _)| t >= 4.5)
+        .map(|&(_, v)| v.abs())
+        .fold(0.0, f64::max);
+    (s.verdict, s.verdict_reason, restarts, window_peak)
 }
 
 #[test]

@@ -134,10 +134,10 @@ impl Chip {
         } else {
             1.0
         };
-        let i_ref = self
-            .speed_update(start.is_some(), d)
-            .or(start)
-            .unwrap_or(0.0);
+        let i_ref = match start {
+            Some(i) => i,
+            None => self.speed_update(d),
+        };
         self.i_ref = i_ref;
         let u = self.current_pi.update((i_ref - i) / d);
         self.cv = (u.round() as u32).min(self.top);

@@ -138,8 +138,6 @@ pub struct Chip {
     /// The speed PI's reference while it descends after a start \[rpm\] (0: none;
     /// `control.start_descent_rpm_s`).
     descent_rpm: f64,
-    /// The last PI update was under the start current.
-    after_start: bool,
     current_pi: Pi,
     supervisor: Supervisor,
     /// FG measurements the supervisor has seen.
@@ -250,7 +248,6 @@ impl Chip {
             speed_pi,
             held_phase_a: 0.0,
             descent_rpm: 0.0,
-            after_start: false,
             current_pi,
             supervisor: Supervisor::new(&control),
             measurements_seen: 0,

@@ -70,7 +70,6 @@ drive_core::persist_fields!(Chip {
     speed_pi,
     held_phase_a,
     descent_rpm,
-    after_start,
     current_pi,
     supervisor,
     measurements_seen,
@@ -158,8 +157,7 @@ impl Chip {
         })?;
         // ui/d̂: the integrator's clamp over the schedule's least duty; nothing is held where
         // nothing is resumed.
-        let resumes = c.speed_resume && self.guard.linear_window_deg(0).is_none();
-        let held = if resumes {
+        let held = if self.resumes() {
             self.speed_pi.gains.ui_hi.max(self.speed_pi.gains.hi) / c.schedule_min_duty
         } else {
             0.0

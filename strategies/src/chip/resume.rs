@@ -19,51 +19,44 @@ fn phase_duty(c: &ControlParams, rpm: f64, i_phase_a: f64) -> f64 {
 }
 
 impl Chip {
-    /// The speed PI's reference at the update after the start (`first`) or later: the
-    /// command, or the descent while it is above the command. The descent is armed on the
-    /// first update after the start at the measured speed `rpm`; through the meter's second
-    /// reading it only follows the meter up, because the first reading averages a rotor
-    /// that was accelerating hard (661 rpm with the rotor at 990 on the built-in drive, the
-    /// second 1003); from the third on it falls by `start_descent_rpm_s` per second,
+    /// The speed PI's reference at an update after the start: the command, or the descent
+    /// while it is above the command. Through the meter's second reading after the start
+    /// the descent only follows the measured speed `rpm` up (from 0, the start's reset),
+    /// because the first reading averages a rotor that was accelerating hard (661 rpm with
+    /// the rotor at 990 on the built-in drive, the second 1003); from the third on it falls by `start_descent_rpm_s` per second,
     /// whatever the rotor does, and ends at the command: at the third reading for a start
     /// whose readings stayed at or below it, and (peak − command)/rate later at most. (A
     /// rotor lost before the third reading is the supervisor's, whose restart disarms it.)
-    fn speed_reference(&mut self, first: bool, rpm: f64) -> f64 {
+    fn speed_reference(&mut self, rpm: f64) -> f64 {
         let rate = self.control.start_descent_rpm_s;
-        if first && rate > 0.0 {
-            self.descent_rpm = rpm;
-        }
-        if self.descent_rpm > 0.0 {
-            if self.speed.measurements() <= 2 {
-                self.descent_rpm = self.descent_rpm.max(rpm);
-            } else {
-                self.descent_rpm -= rate * clocks::PI_UPDATE.seconds();
-                if self.descent_rpm <= self.speed_ref_rpm {
-                    self.descent_rpm = 0.0;
-                }
+        if rate > 0.0 && self.speed.measurements() <= 2 {
+            self.descent_rpm = self.descent_rpm.max(rpm);
+        } else if self.descent_rpm > 0.0 {
+            self.descent_rpm -= rate * clocks::PI_UPDATE.seconds();
+            if self.descent_rpm <= self.speed_ref_rpm {
+                self.descent_rpm = 0.0;
             }
         }
         self.speed_ref_rpm.max(self.descent_rpm)
     }
 
-    /// The speed PI's update (None under the start current, `starting`), with
-    /// `control.speed_resume`'s preset on leaving the lower limit (a positive error after
+    /// Whether `control.speed_resume` acts: only with a guard without a linear region.
+    pub(super) fn resumes(&self) -> bool {
+        self.control.speed_resume && self.guard.linear_window_deg(0).is_none()
+    }
+
+    /// The speed PI's update after the start, with `control.speed_resume`'s preset on leaving the lower limit (a positive error after
     /// an update at the limit), for the guards without a linear region (raw and DF).
     /// A window's full-voltage time drives the rotor beside the PI's current (a 1° window
     /// alone holds ≈ 550 rpm on the built-in drive), so there the current held before the
     /// fall says nothing about what is needed after it; preset anyway, the current's short
     /// PWM on-times lengthened the windows and kicked the rotor above the command
     /// (calibrate-lm's ωm rose from 551 to 715 rpm).
-    pub(super) fn speed_update(&mut self, starting: bool, d: f64) -> Option<f64> {
-        if starting {
-            self.after_start = true;
-            return None;
-        }
-        let first = std::mem::take(&mut self.after_start);
+    pub(super) fn speed_update(&mut self, d: f64) -> f64 {
         let rpm = f64::from(self.speed.rpm());
-        let speed_error = self.speed_reference(first, rpm) - rpm;
+        let speed_error = self.speed_reference(rpm) - rpm;
         let lo = self.speed_pi.gains.lo;
-        let resume = self.control.speed_resume && self.guard.linear_window_deg(0).is_none();
+        let resume = self.resumes();
         if resume && self.speed_pi.output() <= lo && speed_error > 0.0 {
             let i_ph = self.held_phase_a;
             let d_held = phase_duty(&self.control, rpm, i_ph);
@@ -83,6 +76,6 @@ impl Chip {
             let ui = self.speed_pi.integrator();
             self.held_phase_a = ui / scheduled_duty(&self.control, rpm, ui);
         }
-        Some(out)
+        out
     }
 }

@@ -30,7 +30,6 @@ impl Chip {
         self.speed_pi.set_integrator(0.0);
         self.held_phase_a = 0.0;
         self.descent_rpm = 0.0;
-        self.after_start = false;
         self.i_ref = 0.0;
         self.guard.filter.reset();
     }
